@@ -1,0 +1,54 @@
+"""`simgen` command line: one sub-command per module in `simgen.commands`.
+
+Each command module exposes `register(subparsers)`, which adds its parser and sets
+`func(args) -> int` as the parser's default. Bad input raises `UserError`, which is
+reported here as one line and exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from simgen import __version__
+from simgen.errors import UserError
+
+COMMANDS = ("capture", "validate", "pattern")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but usage errors are one line (argparse already exits 2)."""
+
+    def error(self, message: str) -> None:  # noqa: D102 - argparse API
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="simgen",
+        description="Simulate a sparse, stationary Livox LiDAR watching a football match "
+        "played by the Google Research Football engine, and write labelled datasets.",
+    )
+    parser.add_argument("--version", action="version", version=f"simgen {__version__}")
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    subparsers.required = True
+    for name in COMMANDS:
+        importlib.import_module(f"simgen.commands.{name}").register(subparsers)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except UserError as error:
+        print(f"simgen {args.command}: error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"simgen {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
