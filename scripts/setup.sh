@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# The whole set-up, idempotent: Debian packages, the .venv with simgen and its dependencies,
+# and the football engine (built once, cached outside the clone). A second run takes seconds.
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+cd "$root"
+venv=$root/.venv
+
+# 1. Debian packages: the engine's build and runtime needs, and Open3D's libusb.
+packages=(build-essential cmake libgl1-mesa-dev libsdl2-dev libsdl2-image-dev libsdl2-ttf-dev
+  libsdl2-gfx-dev libboost-python-dev libboost-system-dev libboost-filesystem-dev
+  libboost-thread-dev libdirectfb-dev libst-dev mesa-utils xvfb libusb-1.0-0 patch)
+missing=()
+for package in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" || missing+=("$package")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${#missing[@]} Debian packages: ${missing[*]}"
+  sudo_cmd=""; [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
+  $sudo_cmd apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+else
+  echo "setup: Debian packages present"
+fi
+
+# 2. The virtual environment, keyed by the hash of pyproject.toml.
+python=$(command -v python3.11 || command -v python3)
+if [ ! -x "$venv/bin/python" ]; then
+  echo "setup: creating $venv with $($python --version)"
+  "$python" -m venv "$venv"
+fi
+deps_key=$(sha256sum pyproject.toml | cut -c1-12)
+if [ ! -f "$venv/.deps-$deps_key" ]; then
+  echo "setup: installing Python dependencies into $venv (first time: a few minutes)"
+  "$venv/bin/pip" install --quiet --upgrade pip setuptools wheel 2> >(grep -v "WARNING: Location" >&2)
+  "$venv/bin/pip" install --quiet -e ".[test]" 2> >(grep -v "WARNING: Location" >&2)
+  rm -f "$venv"/.deps-*
+  touch "$venv/.deps-$deps_key"
+else
+  echo "setup: Python dependencies up to date"
+fi
+
+# 3. The football engine with the keypoint export.
+VENV=$venv bash scripts/install_engine.sh

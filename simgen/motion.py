@@ -1,0 +1,218 @@
+"""Motion capture: the real Google Research Football engine plays, we record skeletons.
+
+All 22 players play on the engine's built-in AI (the one agent sends `builtin_ai`). Our engine
+patch (engine/gfootball-keypoints.patch) records, after every 10 ms physics step, the world
+positions of the 12 body parts of every humanoid and the ball; we keep every
+`100 / capture_hz`-th sample. Everything here is in the pitch frame of `simgen.skeleton`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from simgen.errors import UserError
+from simgen.scenario import MotionConfig
+from simgen.skeleton import NUM_KEYPOINTS
+
+ENGINE_STEP_S = 0.1
+PHYSICS_STEPS_PER_ENGINE_STEP = 10
+PHYSICS_STEP_S = ENGINE_STEP_S / PHYSICS_STEPS_PER_ENGINE_STEP
+#: Scale from the engine's observation coordinates to metres (see the engine's defines.hpp).
+OBSERVATION_TO_METRES = np.array([54.4, -83.6, 1.0])
+ROLE_NAMES = ("GK", "CB", "LB", "RB", "DM", "CM", "LM", "RM", "AM", "CF")
+OFFICIAL_ROLES = ("referee", "linesman", "linesman")
+
+
+@dataclass(frozen=True)
+class MotionClip:
+    """Skeletons of every humanoid and the ball over a clip.
+
+    F frames at `capture_hz`, H humanoids (left team, right team, officials), in the pitch frame.
+    """
+
+    time_s: np.ndarray  # (F,) float64, game time since kick-off, seconds
+    keypoints_m: np.ndarray  # (F, H, 12, 3) float32, metres, order of simgen.skeleton.KEYPOINT_NAMES
+    ball_m: np.ndarray  # (F, 3) float32, ball centre, metres
+    engine_position_m: np.ndarray  # (F, H, 3) float32: the engine's own player position; NaN for officials
+    track_id: np.ndarray  # (H,) int32, stable over the clip
+    team: np.ndarray  # (H,) str: "left", "right" or "official"
+    role: np.ndarray  # (H,) str: GK, CB, ... for players; referee or linesman
+    jersey: np.ndarray  # (H,) int16; -1: the engine has no shirt numbers
+    capture_hz: int
+    metadata: dict = field(default_factory=dict)  # level, seed, engine version...
+
+    @property
+    def num_frames(self) -> int:
+        return len(self.time_s)
+
+    @property
+    def num_humanoids(self) -> int:
+        return len(self.track_id)
+
+
+def _import_engine():
+    """Import gfootball without its banners (gym's deprecation notice); a missing engine is one line."""
+    os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+    try:
+        with open(os.devnull, "w") as devnull, contextlib.redirect_stdout(devnull), contextlib.redirect_stderr(devnull):
+            import gfootball_engine  # noqa: F401
+            from gfootball.env import config as gf_config
+            from gfootball.env import football_action_set, football_env_core
+    except ImportError as error:
+        raise UserError(f"the football engine is not installed ({error}); run `make setup`") from None
+    return gf_config, football_action_set, football_env_core
+
+
+def check_level(level: str) -> None:
+    """Raise `UserError` unless the installed engine offers this GRF level (scenario module)."""
+    _import_engine()
+    from gfootball.env import scenario_builder
+
+    if level not in scenario_builder.all_scenarios():
+        raise UserError(f"motion.level: unknown GRF level '{level}'")
+
+
+class FootballEngine:
+    """The live engine, one match, all players on built-in AI, stepped 100 ms at a time."""
+
+    def __init__(self, motion: MotionConfig, seed: int, *, capture_keypoints: bool = True):
+        gf_config, action_set, env_core = _import_engine()
+        check_level(motion.level)
+        values = {
+            "level": motion.level,
+            "players": ["agent:left_players=1"],
+            "action_set": "v2",
+            "game_engine_random_seed": int(seed),
+            "physics_steps_per_frame": PHYSICS_STEPS_PER_ENGINE_STEP,
+            "real_time": False,
+            "render": False,
+            "write_video": False,
+            "dump_full_episodes": False,
+            "dump_scores": False,
+        }
+        self._core = env_core.FootballEnvCore(gf_config.Config(values))
+        self._engine = self._core._env  # the boost-python GameEnv of the patched engine
+        scenario_config = self._engine.config
+        if motion.left_difficulty is not None:
+            scenario_config.left_team_difficulty = motion.left_difficulty
+        if motion.right_difficulty is not None:
+            scenario_config.right_team_difficulty = motion.right_difficulty
+        self._builtin_ai = action_set.action_builtin_ai._backend_action
+        self._engine.set_keypoint_capture(capture_keypoints)
+        self.physics_steps = 0
+
+    def step(self) -> None:
+        """Play 100 ms of game time (10 physics steps)."""
+        self._engine.perform_action(self._builtin_ai, True, 0)
+        self._engine.step()
+        self.physics_steps += PHYSICS_STEPS_PER_ENGINE_STEP
+
+    def info(self):
+        return self._engine.get_info()
+
+    def samples(self) -> np.ndarray:
+        """What the last step recorded: (10, H*12 + 1, 3) float32, humanoid parts then the ball."""
+        raw = np.frombuffer(self._engine.get_keypoints(), dtype=np.float32)
+        return raw.reshape(PHYSICS_STEPS_PER_ENGINE_STEP, -1, 3)
+
+    def close(self) -> None:
+        self._engine.set_keypoint_capture(False)
+        self._core.close()
+
+
+def _roster(info, num_humanoids: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    n_left, n_right = len(info.left_team), len(info.right_team)
+    n_officials = num_humanoids - n_left - n_right
+    if not 0 <= n_officials <= len(OFFICIAL_ROLES):
+        raise RuntimeError(f"engine exported {num_humanoids} humanoids for {n_left}+{n_right} players")
+    team = ["left"] * n_left + ["right"] * n_right + ["official"] * n_officials
+    roles = [ROLE_NAMES[int(p.role)] for p in info.left_team]
+    roles += [ROLE_NAMES[int(p.role)] for p in info.right_team]
+    roles += list(OFFICIAL_ROLES[:n_officials])
+    return np.arange(num_humanoids, dtype=np.int32), np.array(team), np.array(roles)
+
+
+def _engine_positions(info, num_humanoids: int) -> np.ndarray:
+    """The engine's own reported player positions, converted to the pitch frame (metres)."""
+    out = np.full((num_humanoids, 3), np.nan, dtype=np.float32)
+    players = list(info.left_team) + list(info.right_team)
+    for i, player in enumerate(players):
+        out[i] = [player.position[k] for k in range(3)] * OBSERVATION_TO_METRES
+    return out
+
+
+def capture_motion(
+    motion: MotionConfig, seed: int, progress: Callable[[int], None] | None = None
+) -> MotionClip:
+    """Play the level and capture `motion.frames` frames; `progress(n)` is told of each new frame.
+
+    A frame is taken after every physics step whose count since kick-off is a multiple of
+    `100 / capture_hz`; `time_s` is that count times 10 ms.
+    """
+    stride = round(100 / motion.capture_hz)
+    engine = FootballEngine(motion, seed)
+    times, keypoints, ball, positions = [], [], [], []
+    try:
+        for _ in range(round(motion.skip_s / ENGINE_STEP_S)):
+            engine.step()
+        while len(times) < motion.frames:
+            step_start = engine.physics_steps
+            engine.step()
+            samples = engine.samples()
+            info = engine.info()
+            num_humanoids = (samples.shape[1] - 1) // NUM_KEYPOINTS
+            for sub in range(PHYSICS_STEPS_PER_ENGINE_STEP):
+                physics_step = step_start + sub + 1
+                if physics_step % stride or len(times) == motion.frames:
+                    continue
+                at_step_end = sub == PHYSICS_STEPS_PER_ENGINE_STEP - 1
+                times.append(physics_step * PHYSICS_STEP_S)
+                keypoints.append(samples[sub, :-1].reshape(num_humanoids, NUM_KEYPOINTS, 3))
+                ball.append(samples[sub, -1])
+                positions.append(
+                    _engine_positions(info, num_humanoids)
+                    if at_step_end
+                    else np.full((num_humanoids, 3), np.nan, np.float32)
+                )
+                if progress:
+                    progress(1)
+        track_id, team, role = _roster(info, num_humanoids)
+    finally:
+        engine.close()
+    return MotionClip(
+        time_s=np.round(np.array(times, dtype=np.float64), 6),
+        keypoints_m=np.stack(keypoints).astype(np.float32),
+        ball_m=np.stack(ball).astype(np.float32),
+        engine_position_m=np.stack(positions).astype(np.float32),
+        track_id=track_id,
+        team=team,
+        role=role,
+        jersey=np.full(len(track_id), -1, dtype=np.int16),
+        capture_hz=motion.capture_hz,
+        metadata={"level": motion.level, "seed": seed, **engine_versions()},
+    )
+
+
+def engine_versions() -> dict:
+    """gfootball's version and the hash of our engine patch, for manifests."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        gfootball_version = version("gfootball")
+    except PackageNotFoundError:
+        gfootball_version = "not installed"
+    return {"gfootball": gfootball_version, "engine_patch": engine_patch_hash()}
+
+
+def engine_patch_hash() -> str:
+    """First 12 hex digits of the sha256 of the installed engine patch (the set-up cache key)."""
+    import glob
+    import sys
+
+    markers = glob.glob(os.path.join(sys.prefix, ".gfootball-*"))
+    return os.path.basename(markers[0]).split("-")[-1] if markers else "unknown"

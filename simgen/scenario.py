@@ -1,0 +1,98 @@
+"""Scenario files: YAML validated by a pydantic schema.
+
+A scenario says what to simulate. Unknown keys, wrong types and out-of-range values are
+rejected with one line naming the field (`load_scenario` raises `UserError`).
+Later stages add their own sections (sensors, scene, noise, output) to `Scenario`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from simgen.errors import UserError
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class MotionConfig(_Strict):
+    """How the Google Research Football engine plays and what is captured."""
+
+    level: str = Field(
+        "11_vs_11_stochastic",
+        pattern=r"^[A-Za-z0-9_]+$",
+        description="GRF level (scenario module in gfootball.scenarios); all players on built-in AI.",
+    )
+    frames: int = Field(100, ge=1, le=1_000_000, description="Frames captured, at capture_hz.")
+    capture_hz: Literal[10, 20, 25, 50, 100] = Field(
+        10, description="Keypoint samples per second of game time (engine steps are 10 Hz, physics 100 Hz)."
+    )
+    skip_s: float = Field(
+        0.0, ge=0.0, le=3600.0, description="Game time played before capture starts, seconds."
+    )
+    left_difficulty: float | None = Field(
+        None, ge=0.0, le=1.0, description="Built-in AI strength of the left team (default: the level's)."
+    )
+    right_difficulty: float | None = Field(
+        None, ge=0.0, le=1.0, description="Built-in AI strength of the right team (default: the level's)."
+    )
+
+
+class Scenario(_Strict):
+    """A whole scenario file."""
+
+    name: str = Field(..., pattern=r"^[A-Za-z0-9_.-]+$", description="Short name, used in outputs.")
+    description: str = ""
+    seed: int = Field(0, ge=0, lt=2**31, description="Seed of every random choice (engine included).")
+    motion: MotionConfig = MotionConfig()
+
+
+def _field_path(location: tuple) -> str:
+    return ".".join(str(part) for part in location) or "(top level)"
+
+
+def _one_line(error: ValidationError) -> str:
+    first = error.errors()[0]
+    field = _field_path(first["loc"])
+    if first["type"] == "extra_forbidden":
+        return f"unknown key '{field}'"
+    if first["type"] == "missing":
+        return f"missing key '{field}'"
+    value = first.get("input")
+    return f"'{field}': {first['msg']} (got {value!r})"
+
+
+def parse_scenario(data: object, source: str = "scenario") -> Scenario:
+    """Validate a parsed YAML document; raise `UserError` naming the first bad field."""
+    if not isinstance(data, dict):
+        raise UserError(f"{source}: expected a mapping of keys at the top level")
+    try:
+        return Scenario.model_validate(data)
+    except ValidationError as error:
+        extra = f" (and {error.error_count() - 1} more)" if error.error_count() > 1 else ""
+        raise UserError(f"{source}: {_one_line(error)}{extra}") from None
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario YAML file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise UserError(f"{path}: no such scenario file") from None
+    except IsADirectoryError:
+        raise UserError(f"{path}: is a directory, not a scenario file") from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise UserError(f"{path}: cannot read ({error.__class__.__name__}: {error})") from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(error, "problem", None) or "malformed YAML"
+        raise UserError(f"{path}: malformed YAML{where}: {problem}") from None
+    return parse_scenario(data, str(path))

@@ -1,0 +1,87 @@
+"""Scenario files: the schema accepts ours and names the field of every mistake."""
+
+from __future__ import annotations
+
+import pytest
+import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from conftest import ROOT, run_simgen
+from simgen.errors import UserError
+from simgen.scenario import Scenario, load_scenario, parse_scenario
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "scenarios").glob("*.yaml")), ids=lambda p: p.name)
+def test_shipped_scenarios_are_valid(path):
+    scenario = load_scenario(path)
+    assert scenario.name == path.stem
+
+
+@pytest.mark.parametrize(
+    "document, field",
+    [
+        ({"name": "x", "motoin": {}}, "unknown key 'motoin'"),
+        ({"name": "x", "motion": {"frames": -5}}, "'motion.frames'"),
+        ({"name": "x", "motion": {"frames": "many"}}, "'motion.frames'"),
+        ({"name": "x", "motion": {"capture_hz": 30}}, "'motion.capture_hz'"),
+        ({"name": "x", "motion": {"levle": "a"}}, "unknown key 'motion.levle'"),
+        ({"name": "x", "motion": {"left_difficulty": 1.5}}, "'motion.left_difficulty'"),
+        ({"name": "x", "seed": -1}, "'seed'"),
+        ({"name": "has space"}, "'name'"),
+        ({"seed": 1}, "missing key 'name'"),
+        (["a", "list"], "expected a mapping"),
+    ],
+)
+def test_bad_documents_name_the_field(document, field):
+    with pytest.raises(UserError) as error:
+        parse_scenario(document, "s.yaml")
+    message = str(error.value)
+    assert field in message and "\n" not in message
+
+
+def _write(tmp_path, text: str):
+    path = tmp_path / "scenario.yaml"
+    path.write_text(text)
+    return path
+
+
+def test_validate_cli_typo_negative_frames_and_missing_file(tmp_path):
+    typo = _write(tmp_path, "name: t\nmotion:\n  frmaes: 10\n")
+    negative = tmp_path / "negative.yaml"
+    negative.write_text("name: t\nmotion:\n  frames: -10\n")
+    for path, expected in [
+        (typo, "unknown key 'motion.frmaes'"),
+        (negative, "'motion.frames': Input should be greater than or equal to 1"),
+        (tmp_path / "missing.yaml", "no such scenario file"),
+    ]:
+        result = run_simgen("validate", path)
+        assert result.returncode == 2, result
+        lines = result.stderr.strip().splitlines()
+        assert len(lines) == 1 and expected in lines[0], result.stderr
+        assert "Traceback" not in result.stderr and result.stdout == ""
+
+
+def test_malformed_yaml_is_one_line(tmp_path):
+    with pytest.raises(UserError, match="malformed YAML at line 3"):
+        load_scenario(_write(tmp_path, "name: t\nmotion: [unclosed\n"))
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.dictionaries(
+        st.sampled_from(["frames", "capture_hz", "skip_s", "level", "left_difficulty", "bogus"]),
+        st.one_of(st.integers(-10**6, 10**6), st.floats(allow_nan=True), st.text(max_size=5), st.none()),
+        min_size=1,
+    )
+)
+def test_any_motion_section_is_valid_or_one_line_error(motion):
+    """Property: whatever the values, the schema either accepts them within range or names one field."""
+    try:
+        scenario = parse_scenario({"name": "p", "motion": motion})
+    except UserError as error:
+        assert "\n" not in str(error) and "motion" in str(error)
+    else:
+        assert isinstance(scenario, Scenario)
+        assert scenario.motion.frames >= 1 and scenario.motion.skip_s >= 0
+        assert yaml.safe_dump(scenario.model_dump())
