@@ -1,0 +1,86 @@
+"""Oriented 3D boxes of humanoids from their keypoints: the detector's labels.
+
+Box convention (as train/geometry.py): 7 floats (x, y, z, length, width, height, yaw), metres
+and radians; (x, y, z) is the centre, length runs along the heading, width across it, height
+along z, yaw turns the heading counter-clockwise from +x, in (-pi, pi].
+
+The heading is simgen.heading's: the perpendicular of the shoulder line, facing forward, with
+its documented fallbacks (hips line, spine, velocity, +x). In the heading frame the box spans
+the 12 keypoints and the body's volume, taken from the body model itself (simgen.body's
+`body_extent`, exact for its parts' ellipsoids) rather than from fixed margins, so the body
+mesh lies inside and the box is tight around it, in any pose and under any fallback heading.
+(Fixed margins around the keypoints would have to reach 0.45 m, the hands, beyond the
+elbows; scripts/measure_box_margins.py measures that reach and the boxes' slack, under 1 cm.)
+Vertically the box runs from the ground (z = 0), or from the lowest point of the body when
+that is `AIRBORNE_M` or more above the ground (a jump), to the highest point of the body.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from simgen.body import body_extent
+from simgen.heading import as_keypoints, heading
+
+FACE_NAMES = ("front", "back", "left", "right", "top", "bottom")
+#: A body whose lowest point is closer to the ground stands on it: the engine's ankle heights
+#: vary by a few centimetres, and a box bottom should not jitter with them.
+AIRBORNE_M = 0.05
+
+
+@dataclass(frozen=True)
+class Boxes:
+    """Oriented boxes of H humanoids."""
+
+    centre_m: NDArray[np.float64]  # (H, 3) box centre, pitch frame
+    size_m: NDArray[np.float64]  # (H, 3) length (along the heading), width, height
+    yaw_rad: NDArray[np.float64]  # (H,) heading, counter-clockwise from +x, in (-pi, pi]
+    heading_source: NDArray[np.int8]  # (H,) simgen.heading source code (SHOULDERS, HIPS, ...)
+
+    @property
+    def array(self) -> NDArray[np.float64]:
+        """(H, 7): x, y, z, length, width, height, yaw."""
+        return np.concatenate([self.centre_m, self.size_m, self.yaw_rad[:, None]], axis=1)
+
+
+def _axes(yaw_rad: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(H, 3, 3) rows: heading, its left, up."""
+    cos, sin = np.cos(yaw_rad), np.sin(yaw_rad)
+    zero, one = np.zeros_like(cos), np.ones_like(cos)
+    return np.stack(
+        [np.stack([cos, sin, zero], 1), np.stack([-sin, cos, zero], 1), np.stack([zero, zero, one], 1)], 1
+    )
+
+
+def boxes_from_keypoints(keypoints: ArrayLike, velocity_mps: ArrayLike | None = None) -> Boxes:
+    """Boxes of humanoids (H, 12, 3), metres; velocity (H, 3) in m/s serves the heading fallback."""
+    kp = as_keypoints(keypoints)
+    facing = heading(kp, velocity_mps)
+    axes = _axes(facing.yaw_rad)
+    low, high = body_extent(kp, axes)
+    local = np.einsum("hni,hki->hnk", kp, axes)
+    low, high = np.minimum(low, local.min(axis=1)), np.maximum(high, local.max(axis=1))
+    low[:, 2] = np.where(low[:, 2] < AIRBORNE_M, 0.0, low[:, 2])
+    centre = np.einsum("hk,hki->hi", 0.5 * (low + high), axes)
+    return Boxes(centre_m=centre, size_m=high - low, yaw_rad=facing.yaw_rad, heading_source=facing.source)
+
+
+def box_frame(points: ArrayLike, boxes: Boxes) -> NDArray[np.float64]:
+    """Points (H, N, 3) in their box's frame: from its centre, along its heading, left, up; metres."""
+    offset = np.asarray(points, dtype=np.float64) - boxes.centre_m[:, None]
+    return np.einsum("hni,hki->hnk", offset, _axes(boxes.yaw_rad))
+
+
+def overhang(points: ArrayLike, boxes: Boxes) -> NDArray[np.float64]:
+    """(H, 6): how far points (H, N, 3) reach beyond each face of their box (FACE_NAMES); metres.
+
+    Negative where every point stays inside that face.
+    """
+    local = box_frame(points, boxes)
+    half = 0.5 * boxes.size_m
+    return np.concatenate([local.max(axis=1) - half, -half - local.min(axis=1)], axis=1)[
+        :, [0, 3, 1, 4, 2, 5]
+    ]
