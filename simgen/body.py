@@ -4,11 +4,17 @@ Each body part is a tapered elliptic capsule: two half-ellipsoid caps, one per e
 a band. Its template (unit sphere split at the equator, band rings at fixed fractions) is
 built once; each of its vertices is carried by the affine frame of one end, or by a fixed
 blend of both frames for band rings. Posing is then a single sparse matrix product of that
-skinning matrix with the 2 x 13 end frames of every humanoid, vectorised over humanoids.
+skinning matrix with the 2 x 14 end frames of every humanoid, vectorised over humanoids.
 
-Parts and sizes (fixed adult half-axes; segment lengths come from the keypoints): torso from
-the centre of the hip joints to the centre of the shoulders, 0.34 m across, 0.22-0.23 m
-front to back; neck; head, its top 0.26 m above the neck keypoint along the spine (middle ->
+Both ends of a part share one orientation and the engine's skeleton is rigid (every bone has
+the same length in every frame and player), so each part moves rigidly with its frame
+(`part_frames`): the ray caster keeps each part's mesh once, in part coordinates
+(`part_templates`), and moves rays instead of meshes.
+
+Parts and sizes (fixed adult half-axes; segment lengths come from the keypoints): pelvis from
+the centre of the hip joints to `middle` (rigid with the hips), chest from `middle` 0.48 m up
+the spine (rigid with the shoulders, which turn with the spine), both 0.34 m across and
+0.22-0.23 m front to back; neck; head, its top 0.26 m above the neck keypoint along the spine (middle ->
 neck); upper arms; forearm plus hand, 0.45 m long from the elbow (there is no wrist keypoint):
 the upper arm's direction with most of its sideways lean taken out, bent `ELBOW_FLEXION_RAD`
 towards the body's front; thighs; shins; feet 0.265 m long, their soles 0.085 m below the
@@ -90,7 +96,8 @@ class _Part:
 
 
 _PARTS = (
-    _Part("torso", 10, 2, (0.25,), (SHORTS, SHIRT), ((0.17, 0.11, 0.08), (0.17, 0.115, 0.06))),
+    _Part("pelvis", 10, 2, (), (SHORTS,), ((0.17, 0.11, 0.08), (0.17, 0.11, 0.07))),
+    _Part("chest", 10, 2, (), (SHIRT,), ((0.17, 0.11, 0.07), (0.17, 0.115, 0.06))),
     _Part("neck", 6, 1, (), (SKIN,), ((0.055, 0.055, 0.055), (0.055, 0.055, 0.055))),
     _Part("head", 8, 2, (), (SKIN,), ((0.075, 0.095, 0.095), (0.075, 0.095, 0.095))),
     *(
@@ -118,6 +125,7 @@ PART_NAMES = tuple(p.name for p in _PARTS)
 _HALF_AXES_M = np.array([p.half_axes_m for p in _PARTS])  # (P, 2, 3)
 
 # Placement along the body, metres.
+_CHEST_LENGTH_M = 0.48  # middle -> top of the chest, along the spine (the shoulders are 0.483 up it)
 _NECK_BELOW_M, _NECK_ABOVE_M = 0.04, 0.09  # neck capsule around the neck keypoint, along the spine
 _HEAD_CENTRE_UP_M, _HEAD_CENTRE_FORWARD_M = 0.145, 0.02  # head centre from the neck keypoint
 _HEAD_HALF_SPAN_M = 0.02  # head cap centres either side of the head centre, along the spine
@@ -196,6 +204,9 @@ _SKINNING, _FACES, _PART_ID, _GARMENT = _template()
 for _array in (_FACES, _PART_ID, _GARMENT):
     _array.flags.writeable = False
 NUM_VERTICES, NUM_FACES = _SKINNING.shape[0], len(_FACES)
+# Each part owns a contiguous run of vertices and of faces.
+_PART_FACE_START = np.searchsorted(_PART_ID, np.arange(len(_PARTS) + 1))
+_PART_VERTEX_START = np.append(_FACES[_PART_FACE_START[:-1]].min(axis=1), NUM_VERTICES)
 
 
 def _first_unit(candidates: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -293,7 +304,7 @@ def _rig(kp: NDArray[np.float64]) -> NDArray[np.float64]:
     # Per part (in PART_NAMES order): end 0, end 1, along, lateral reference at each end.
     p0 = np.concatenate(
         [
-            single(hip_centre, neck - _NECK_BELOW_M * up, head - _HEAD_HALF_SPAN_M * up),
+            single(hip_centre, middle, neck - _NECK_BELOW_M * up, head - _HEAD_HALF_SPAN_M * up),
             joints[:, _SHOULDER],
             joints[:, _ELBOW],
             joints[:, _HIP],
@@ -304,7 +315,7 @@ def _rig(kp: NDArray[np.float64]) -> NDArray[np.float64]:
     )
     p1 = np.concatenate(
         [
-            single(shoulder_centre, neck + _NECK_ABOVE_M * up, head + _HEAD_HALF_SPAN_M * up),
+            single(middle, middle + _CHEST_LENGTH_M * up, neck + _NECK_ABOVE_M * up, head + _HEAD_HALF_SPAN_M * up),
             joints[:, _ELBOW],
             hand,
             joints[:, _KNEE],
@@ -316,7 +327,7 @@ def _rig(kp: NDArray[np.float64]) -> NDArray[np.float64]:
     along = np.empty(p0.shape[:2] + (2, 3))  # (H, P, candidate, 3)
     along[:, :, 0] = np.concatenate(
         [
-            single(shoulder_centre - hip_centre, up, up),
+            single(middle - hip_centre, up, up, up),
             upper_arm,
             forearm,
             joints[:, _KNEE] - joints[:, _HIP],
@@ -327,22 +338,17 @@ def _rig(kp: NDArray[np.float64]) -> NDArray[np.float64]:
     )
     along[:, :, 1] = up[:, None]
     along = _first_unit(along)
-    # Lateral axes: the body's left (the feet: their own), else forward; the torso's ends follow
-    # the hips and the shoulders lines.
+    # Lateral axes: the body's left (the feet: their own), else forward; the pelvis and the chest
+    # follow the hips and the shoulders lines.
     refs = np.empty_like(p0, shape=p0.shape[:2] + (2, 3))
     refs[:, :, 0] = left[:, None]
     refs[:, -2:, 0] = _cross(foot, down)
     refs[:, :, 1] = forward[:, None]
-    lines = np.empty((n, 2, 3, 3))  # (H, end, candidate, 3)
-    lines[:, :, 0] = joints[:, [_HIP, _SHOULDER], 0] - joints[:, [_HIP, _SHOULDER], 1]
-    lines[:, :, 1] = left[:, None]
-    lines[:, :, 2] = forward[:, None]
+    refs[:, :2, 0] = joints[:, [_HIP, _SHOULDER], 0] - joints[:, [_HIP, _SHOULDER], 1]
+    refs[:, :2, 1] = left[:, None]
     affine = np.empty(p0.shape[:2] + (2, 4, 3))
     lateral = _first_across(refs, along)
     affine[:, :, :, :3] = np.stack([lateral, _cross(along, lateral), along], axis=-2)[:, :, None]
-    lateral = _first_across(lines, along[:, :1])  # the torso's, (H, end, 3)
-    along = np.broadcast_to(along[:, :1], lateral.shape)
-    affine[:, 0, :, :3] = np.stack([lateral, _cross(along, lateral), along], axis=-2)
     affine[:, :, 0, 3], affine[:, :, 1, 3] = p0, p1
     return affine
 
@@ -370,6 +376,29 @@ def body_meshes(keypoints: ArrayLike, teams: ArrayLike) -> BodyMeshes:
         part_id=_PART_ID,
         material_id=_KIT_MATERIAL[team][:, _GARMENT],
     )
+
+
+def part_frames(keypoints: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Rigid frame of every part of humanoids (H, 12, 3): rotation (H, P, 3, 3) from part to pitch
+    coordinates, and origin (H, P, 3), metres (the centre of the part's end-0 cap)."""
+    frame = _rig(as_keypoints(keypoints))[:, :, 0]
+    return np.swapaxes(frame[:, :, :3], -1, -2), frame[:, :, 3]
+
+
+def part_templates(keypoints: ArrayLike, teams: ArrayLike) -> list[tuple[NDArray, NDArray, NDArray]]:
+    """Per part: (vertices (H, V_p, 3) in part coordinates, faces (F_p, 3), material ids (H, F_p)).
+
+    Taken from one pose of each humanoid; valid in every pose, as parts are rigid.
+    """
+    meshes = body_meshes(keypoints, teams)
+    rotation, origin = part_frames(keypoints)
+    templates = []
+    for p in range(len(_PARTS)):
+        v0, v1 = _PART_VERTEX_START[p], _PART_VERTEX_START[p + 1]
+        f0, f1 = _PART_FACE_START[p], _PART_FACE_START[p + 1]
+        local = np.einsum("hji,hvj->hvi", rotation[:, p], meshes.vertices_m[:, v0:v1] - origin[:, p, None])
+        templates.append((local, _FACES[f0:f1] - v0, meshes.material_id[:, f0:f1]))
+    return templates
 
 
 def body_extent(

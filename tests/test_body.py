@@ -9,6 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from simgen.body import (
+    part_frames,
+    part_templates,
     GARMENT_NAMES,
     MATERIAL_NAMES,
     NUM_FACES,
@@ -94,7 +96,8 @@ def test_materials_follow_garments_and_teams():
         assert _materials(mesh, h, "head") == {"skin"}
         assert _materials(mesh, h, "left_forearm") == {"skin"}
         assert _materials(mesh, h, "right_foot") == {"boots"}
-        assert _materials(mesh, h, "torso") == {f"shirt_{team}", f"shorts_{team}"}
+        assert _materials(mesh, h, "pelvis") == {f"shorts_{team}"}
+        assert _materials(mesh, h, "chest") == {f"shirt_{team}"}
         assert _materials(mesh, h, "left_upper_arm") == {f"shirt_{team}", "skin"}
         assert _materials(mesh, h, "right_thigh") == {f"shorts_{team}", "skin"}
         assert _materials(mesh, h, "left_shin") == {f"socks_{team}", "skin"}
@@ -107,10 +110,12 @@ def test_materials_follow_garments_and_teams():
 def test_torso_shows_the_shirt_above_the_shorts():
     kp = keypoints(PRESETS["standing"])
     mesh = body_meshes(kp[None], ["left"])
-    torso = mesh.part_id == PART_NAMES.index("torso")
+    torso = np.isin(mesh.part_id, [PART_NAMES.index("pelvis"), PART_NAMES.index("chest")])
     centre_z = mesh.vertices_m[0][mesh.faces[torso]].mean(axis=1)[:, 2]
     names = np.array(MATERIAL_NAMES)[mesh.material_id[0, torso]]
-    assert centre_z[names == "shirt_left"].min() > kp[I["middle"], 2]
+    hips_z = kp[[I["left_thigh"], I["right_thigh"]], 2].mean()
+    assert np.median(centre_z[names == "shirt_left"]) > np.median(centre_z[names == "shorts_left"])
+    assert centre_z[names == "shirt_left"].min() > hips_z
     assert centre_z[names == "shorts_left"].max() < kp[I["middle"], 2] + 0.15
 
 
@@ -177,3 +182,20 @@ def test_bad_input_is_rejected():
         body_meshes(kp, ["home"])
     with pytest.raises(ValueError, match="teams for"):
         body_meshes(kp, ["left", "right"])
+
+
+def test_parts_move_rigidly_on_the_engine_skeleton(motion_clip):
+    """The ray caster's premise: a part's mesh is fixed in its frame, in every captured pose."""
+    kp = motion_clip.keypoints_m[::37].reshape(-1, 12, 3).astype(np.float64)
+    teams = np.tile(motion_clip.team, len(kp) // motion_clip.num_humanoids)
+    first = motion_clip.keypoints_m[0].astype(np.float64)
+    templates = part_templates(np.tile(first, (len(kp) // len(first), 1, 1)), teams)
+    rotation, origin = part_frames(kp)
+    mesh = body_meshes(kp, teams)
+    rebuilt = np.concatenate(
+        [np.einsum("hij,hvj->hvi", rotation[:, p], local) + origin[:, p, None] for p, (local, _, _) in enumerate(templates)],
+        axis=1,
+    )
+    np.testing.assert_allclose(rebuilt, mesh.vertices_m, atol=2e-4)
+    faces = np.concatenate([f + sum(len(t[0][0]) for t in templates[:p]) for p, (_, f, _) in enumerate(templates)])
+    np.testing.assert_array_equal(faces, mesh.faces)

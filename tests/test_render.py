@@ -1,0 +1,159 @@
+"""The renderer: exact geometry, occlusion, and shots accounted for."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from simgen.body import body_meshes
+from simgen.motion import MotionClip
+from simgen.noise import NoiseConfig
+from simgen.poses import PRESETS, keypoints
+from simgen.render import Rays, World, render_frame
+from simgen.scene import BALL, GROUND, LINE, PLAYER, SURROUNDINGS, build_static_scene
+from simgen.skeleton import KEYPOINT_INDEX
+
+EXACT = NoiseConfig(enabled=False, min_range_m=0.0)
+
+
+def still_clip(poses: list[np.ndarray], teams: list[str], ball=(0.0, 0.0, -5.0)) -> MotionClip:
+    """A 1 s clip at 10 Hz of humanoids standing still (ball parked under the ground by default)."""
+    kp = np.repeat(np.stack(poses)[None], 11, axis=0).astype(np.float32)
+    n = len(poses)
+    return MotionClip(
+        time_s=np.round(np.arange(11) * 0.1, 6),
+        keypoints_m=kp,
+        ball_m=np.tile(np.float32(ball), (11, 1)),
+        engine_position_m=np.full((11, n, 3), np.nan, np.float32),
+        track_id=np.arange(n, dtype=np.int32),
+        team=np.array(teams),
+        role=np.array(["CM"] * n),
+        jersey=np.full(n, -1, np.int16),
+        capture_hz=10,
+    )
+
+
+def rays_towards(origin, directions, time_s=0.5) -> Rays:
+    directions = np.asarray(directions, dtype=np.float64)
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    n = len(directions)
+    return Rays(np.tile(np.asarray(origin, float), (n, 1)), directions, np.full(n, time_s), np.zeros(n, np.uint8), np.zeros(n, np.uint8))
+
+
+def fan(origin, target, half_width_rad, count) -> Rays:
+    """A square grid of rays round the direction from origin to target."""
+    forward = np.asarray(target, float) - origin
+    forward /= np.linalg.norm(forward)
+    side = np.cross(forward, [0, 0, 1.0])
+    side /= np.linalg.norm(side)
+    up = np.cross(side, forward)
+    a = np.linspace(-half_width_rad, half_width_rad, count)
+    u, v = np.meshgrid(a, a)
+    return rays_towards(origin, forward + u.reshape(-1, 1) * side + v.reshape(-1, 1) * up)
+
+
+def test_ray_hits_board_and_ground_at_analytic_range():
+    clip = still_clip([keypoints(PRESETS["standing"], position_m=(30, 0))], ["left"])
+    world = World(clip, build_static_scene(surroundings=True))
+    board_face_y = 34 + 4.0 - 0.025  # the board behind the touchline y = +34, 5 cm thick
+    rays = rays_towards((3.0, 0.0, 0.5), [[0, 1, 0], [0, 1, -0.1]])
+    frame = render_frame(world, rays, 0.45, EXACT, np.random.default_rng(0))
+    np.testing.assert_allclose(frame.points_m[:, 1], [board_face_y, 5.0], atol=1e-3)
+    assert list(frame.semantic) == [SURROUNDINGS, GROUND]
+    np.testing.assert_allclose(frame.points_m[1], [3.0, 5.0, 0], atol=1e-3)
+
+
+def moller_trumbore(origin, directions, triangles) -> np.ndarray:
+    """Nearest hit distance of each ray over all triangles (N, 3, 3), brute force; inf if none."""
+    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    e1, e2 = b - a, c - a
+    p = np.cross(directions[:, None], e2[None])  # (R, T, 3)
+    det = np.einsum("rti,ti->rt", p, e1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / det
+        s = origin - a
+        u = np.einsum("rti,ti->rt", p, s) * inv
+        q = np.cross(s, e1)
+        v = np.einsum("ri,ti->rt", directions, q) * inv
+        t = np.einsum("ti,ti->t", e2, q)[None] * inv
+    hit = (np.abs(det) > 1e-12) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
+    return np.where(hit, t, np.inf).min(axis=1)
+
+
+def test_ray_hits_body_where_an_independent_intersector_does():
+    kp = keypoints(PRESETS["running"], yaw_rad=0.7, position_m=(12.0, 3.0))
+    clip = still_clip([kp], ["right"])
+    world = World(clip, build_static_scene(goals=False))
+    origin = np.array([0.0, 0.0, 1.2])
+    rays = fan(origin, kp[KEYPOINT_INDEX["middle"]], np.radians(6), 61)
+    frame = render_frame(world, rays, 0.45, EXACT, np.random.default_rng(0))
+    mesh = body_meshes(kp[None], ["right"])
+    nearest = moller_trumbore(origin, rays.direction, mesh.vertices_m[0][mesh.faces].astype(np.float64))
+    on_body = frame.semantic == PLAYER
+    assert on_body.sum() > 150
+    assert on_body.sum() == np.isfinite(nearest).sum()
+    ours = np.sort(np.linalg.norm(frame.points_m[on_body] - origin, axis=1))
+    np.testing.assert_allclose(ours, np.sort(nearest[np.isfinite(nearest)]), atol=1e-3)
+
+
+def test_player_hidden_behind_another_gets_no_points():
+    origin = np.array([0.0, -20.0, 1.0])
+    near = keypoints(PRESETS["standing"], yaw_rad=np.pi / 2, position_m=(0.0, -10.0))
+    # The far player is the near one moved 1.5 m further along the line of sight through its middle.
+    line = near[KEYPOINT_INDEX["middle"]] - origin
+    far = near + 1.5 * line / np.linalg.norm(line)
+    world = World(still_clip([near, far], ["left", "right"]), build_static_scene(goals=False))
+    rays = fan(origin, near[KEYPOINT_INDEX["middle"]], np.radians(8), 121)
+    frame = render_frame(world, rays, 0.45, EXACT, np.random.default_rng(0))
+    assert (frame.instance_id == 0).sum() > 500
+    assert (frame.instance_id == 1).sum() == 0
+    # Without the near player, the far one is seen.
+    alone = World(still_clip([far], ["right"]), build_static_scene(goals=False))
+    assert (render_frame(alone, rays, 0.45, EXACT, np.random.default_rng(0)).semantic == PLAYER).sum() > 300
+
+
+def test_ball_lines_and_every_shot_accounted_for():
+    clip = still_clip([keypoints(PRESETS["standing"], position_m=(5, 5))], ["official"], ball=(0.0, 9.15, 0.11))
+    world = World(clip, build_static_scene(goals=True))
+    rng = np.random.default_rng(3)
+    directions = rng.normal(size=(20000, 3))
+    directions[:, 2] = -np.abs(directions[:, 2])
+    directions[:10, :] = [0.0, 9.15, 0.11 - 3.0]  # at the ball
+    rays = rays_towards((0.0, 0.0, 3.0), directions)
+    noise = NoiseConfig(dropout=0.1)
+    frame = render_frame(world, rays, 0.45, noise, rng)
+    assert len(frame.points_m) == frame.shots - frame.dropped - frame.missed
+    assert frame.dropped == pytest.approx(0.1 * (frame.shots - frame.missed), rel=0.1)
+    ball = frame.semantic == BALL
+    assert ball.sum() >= 5 and (frame.instance_id[ball] == 1000).all()
+    np.testing.assert_allclose(np.linalg.norm(frame.points_m[ball] - [0.0, 9.15, 0.11], axis=1), 0.11, atol=0.1)
+    assert (frame.semantic == LINE).sum() > 10
+    # Lines are brighter than grass.
+    assert frame.intensity[frame.semantic == LINE].mean() > frame.intensity[frame.semantic == GROUND].mean()
+
+
+def test_fast_player_smears_within_a_sweep():
+    """Points of a player running 8 m/s across a 100 ms sweep spread along the run by about 0.8 m."""
+    kp = keypoints(PRESETS["standing"], yaw_rad=0.0, position_m=(0.0, 10.0))
+    frames = np.stack([kp + [8.0 * t, 0, 0] for t in np.arange(11) * 0.1])
+    clip = still_clip([kp], ["left"])
+    clip = MotionClip(**{**clip.__dict__, "keypoints_m": frames[:, None].astype(np.float32)})
+    world = World(clip, build_static_scene(goals=False))
+    rng = np.random.default_rng(0)
+    n = 40000
+    directions = np.stack([rng.uniform(-0.2, 0.3, n), np.ones(n), rng.uniform(-0.15, 0.05, n)], axis=1)
+    rays = Rays(
+        np.tile([0.0, 0.0, 1.0], (n, 1)),
+        directions / np.linalg.norm(directions, axis=1, keepdims=True),
+        np.linspace(0.2, 0.3, n),
+        np.zeros(n, np.uint8),
+        np.zeros(n, np.uint8),
+    )
+    frame = render_frame(world, rays, 0.2, EXACT, rng)
+    body = frame.instance_id == 0
+    early = body & (frame.time_offset_s < 0.02)
+    late = body & (frame.time_offset_s > 0.08)
+    shift_m = frame.points_m[late, 0].mean() - frame.points_m[early, 0].mean()
+    elapsed_s = frame.time_offset_s[late].mean() - frame.time_offset_s[early].mean()
+    assert early.sum() > 20 and late.sum() > 20
+    assert shift_m == pytest.approx(8.0 * elapsed_s, abs=0.1)
