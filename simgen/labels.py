@@ -25,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from simgen.body import body_extent
 from simgen.heading import as_keypoints, heading
 
+
 FACE_NAMES = ("front", "back", "left", "right", "top", "bottom")
 #: A body whose lowest point is closer to the ground stands on it: the engine's ankle heights
 #: vary by a few centimetres, and a box bottom should not jitter with them.
@@ -84,3 +85,36 @@ def overhang(points: ArrayLike, boxes: Boxes) -> NDArray[np.float64]:
     return np.concatenate([local.max(axis=1) - half, -half - local.min(axis=1)], axis=1)[
         :, [0, 3, 1, 4, 2, 5]
     ]
+
+
+@dataclass(frozen=True)
+class FrameLabels:
+    """Labels of every humanoid in one frame (zero-point boxes are kept; `num_points` says so)."""
+
+    boxes: NDArray[np.float32]  # (H, 7) x, y, z, length, width, height, yaw; metres, radians
+    track_id: NDArray[np.int32]  # (H,)
+    team: NDArray[np.str_]  # (H,)
+    role: NDArray[np.str_]  # (H,)
+    velocity_mps: NDArray[np.float32]  # (H, 3) of `middle`
+    keypoints_m: NDArray[np.float32]  # (H, 12, 3)
+    num_points: NDArray[np.int32]  # (H,) points of the frame hit on this humanoid
+
+
+def frame_labels(
+    keypoints: NDArray, velocity_mps: NDArray, track_id: NDArray, team: NDArray, role: NDArray, point_instance: NDArray
+) -> FrameLabels:
+    """Boxes of humanoids (H, 12, 3) at the label time, with the number of points each got."""
+    boxes = boxes_from_keypoints(keypoints, velocity_mps)
+    ids, counts = np.unique(point_instance, return_counts=True)
+    num_points = np.zeros(len(track_id), np.int32)
+    found = np.isin(track_id, ids)
+    num_points[found] = counts[np.searchsorted(ids, track_id[found])]
+    return FrameLabels(
+        boxes=boxes.array.astype(np.float32),
+        track_id=np.asarray(track_id, np.int32),
+        team=np.asarray(team),
+        role=np.asarray(role),
+        velocity_mps=np.asarray(velocity_mps, np.float32),
+        keypoints_m=np.asarray(keypoints, np.float32),
+        num_points=num_points,
+    )

@@ -34,7 +34,6 @@ from simgen.skeleton import KEYPOINT_INDEX
 
 SLICE_S = 0.01  # longest time over which a humanoid keeps one pose within a sweep
 BALL_INSTANCE_ID = 1000  # instance id of the ball's points (humanoids: their track id; others: -1)
-BODY_RADIUS_M = 1.4  # sphere round `middle` that holds any pose of the body (arms up included)
 MAX_NET_PASSES = 3
 
 
@@ -123,14 +122,16 @@ def _ranges(starts: NDArray[np.int64], stops: NDArray[np.int64]) -> tuple[NDArra
     return starts[which] + offsets, which
 
 
-def _body_candidates(origins, directions, sensor, centres, slice_of_ray, t_max) -> tuple[NDArray, NDArray]:
-    """(ray, instance) pairs whose ray passes within BODY_RADIUS_M of the instance's `middle`.
+def _body_candidates(origins, directions, sensor, centres, radius, num_slices, slice_of_ray, t_max) -> tuple[NDArray, NDArray]:
+    """(ray, instance) pairs whose ray passes through the instance's bounding sphere before t_max.
 
-    centres: (S, H, 3) per time slice and humanoid; instance = slice * H + humanoid. Rays are sorted
+    centres (S*H, 3), radius (S*H,) per posed body; instance = slice * H + humanoid. Rays are sorted
     by (origin, slice, azimuth), and each body looks up only the rays of its azimuth interval as
     seen from each origin (one per sensor), so the cost grows with the rays, not rays x bodies.
     """
-    num_slices, num_humanoids = centres.shape[:2]
+    num_humanoids = len(centres) // num_slices
+    centres = centres.reshape(num_slices, num_humanoids, 3)
+    radius = radius.reshape(num_slices, num_humanoids)
     sensors, first = np.unique(sensor, return_index=True)
     unique_origins = origins[first]
     group = np.searchsorted(sensors, sensor) * num_slices + slice_of_ray
@@ -142,7 +143,7 @@ def _body_candidates(origins, directions, sensor, centres, slice_of_ray, t_max) 
     to_centre = centres[None] - unique_origins[:, None, None]  # (O, S, H, 3)
     distance_xy = np.hypot(to_centre[..., 0], to_centre[..., 1])
     centre_azimuth = np.arctan2(to_centre[..., 1], to_centre[..., 0]) + np.pi
-    half = np.where(distance_xy > BODY_RADIUS_M, np.arcsin(np.minimum(BODY_RADIUS_M / np.maximum(distance_xy, 1e-9), 1)), np.pi)
+    half = np.where(distance_xy > radius, np.arcsin(np.minimum(radius / np.maximum(distance_xy, 1e-9), 1)), np.pi)
     base = (np.arange(len(unique_origins))[:, None] * num_slices + np.arange(num_slices)[None])[..., None] * width
     low, high = centre_azimuth - half, centre_azimuth + half
     # Split intervals that wrap round 0 / 2 pi into two; clip to the group's [0, 2 pi].
@@ -161,8 +162,14 @@ def _body_candidates(origins, directions, sensor, centres, slice_of_ray, t_max) 
     to_centre = centres.reshape(-1, 3)[inst] - origins[ray]
     t_mid = np.einsum("ki,ki->k", to_centre, directions[ray])
     miss2 = np.einsum("ki,ki->k", to_centre, to_centre) - t_mid**2
-    near = (miss2 < BODY_RADIUS_M**2) & (t_mid > -BODY_RADIUS_M) & (t_mid - BODY_RADIUS_M < t_max[ray])
+    r = radius.reshape(-1)[inst]
+    near = (miss2 < r**2) & (t_mid > -r) & (t_mid - r < t_max[ray])
     return ray[near], inst[near]
+
+
+def _cos_incidence(normals: NDArray, directions: NDArray) -> NDArray[np.float64]:
+    """|cos| of the angle between surface normals (any length) and unit ray directions."""
+    return np.abs(np.einsum("ni,ni->n", normals, directions)) / np.linalg.norm(normals, axis=1)
 
 
 def cast(world: World, rays: Rays, frame_start_s: float, rng: np.random.Generator) -> dict:
@@ -173,7 +180,7 @@ def cast(world: World, rays: Rays, frame_start_s: float, rng: np.random.Generato
     semantic = np.full(n, GROUND, np.uint8)
     instance = np.full(n, -1, np.int32)
     reflectivity = np.full(n, GRASS_REFLECTIVITY)
-    normal = np.tile([0.0, 0.0, 1.0], (n, 1))
+    cos_incidence = np.abs(d[:, 2])  # the ground's normal is +z
 
     # Static meshes; a net lets a ray through with its transmission probability.
     start = np.zeros(n)
@@ -192,7 +199,7 @@ def cast(world: World, rays: Rays, frame_start_s: float, rng: np.random.Generato
         t[idx] = t_static[stop]
         semantic[idx] = world.scene.semantic[hits.index[stop]]
         reflectivity[idx] = world.scene.reflectivity[hits.index[stop]]
-        normal[idx] = hits.normal[stop]
+        cos_incidence[idx] = _cos_incidence(hits.normal[stop], d[idx])
         start[pending[through]] = t_static[through] + 1e-3
         pending = pending[through]
 
@@ -218,13 +225,18 @@ def cast(world: World, rays: Rays, frame_start_s: float, rng: np.random.Generato
     semantic[hit_ball] = BALL
     instance[hit_ball] = BALL_INSTANCE_ID
     reflectivity[hit_ball] = BALL_REFLECTIVITY
-    normal[hit_ball] = o[hit_ball] + ball_t[hit_ball, None] * d[hit_ball] - ball[slice_of_ray[hit_ball]]
+    outward = o[hit_ball] + ball_t[hit_ball, None] * d[hit_ball] - ball[slice_of_ray[hit_ball]]
+    cos_incidence[hit_ball] = _cos_incidence(outward, d[hit_ball])
 
-    centres = keypoints[:, :, KEYPOINT_INDEX["middle"]]
-    ray, instance_of_pair = _body_candidates(o, d, rays.sensor, centres, slice_of_ray, t)
+    # Each posed body's bounding sphere: round `middle`, holding every part's sphere.
+    rotation, origin = part_frames(keypoints.reshape(-1, 12, 3))  # (S*H, P, ...)
+    parts = world.num_parts
+    templates = np.arange(parts)[None] * num_humanoids + (np.arange(len(origin)) % num_humanoids)[:, None]
+    part_centres = np.einsum("ipjk,ipk->ipj", rotation, world.parts.centre[templates]) + origin
+    centres = keypoints[:, :, KEYPOINT_INDEX["middle"]].reshape(-1, 3)
+    reach = np.linalg.norm(part_centres - centres[:, None], axis=2) + world.parts.radius[templates]
+    ray, instance_of_pair = _body_candidates(o, d, rays.sensor, centres, reach.max(axis=1), num_slices, slice_of_ray, t)
     if len(ray):
-        rotation, origin = part_frames(keypoints.reshape(-1, 12, 3))  # (S*H, P, ...)
-        parts = world.num_parts
         ray = np.repeat(ray, parts)
         posed = np.repeat(instance_of_pair, parts)
         part = np.tile(np.arange(parts), len(instance_of_pair))
@@ -238,10 +250,7 @@ def cast(world: World, rays: Rays, frame_start_s: float, rng: np.random.Generato
         semantic[got] = world.semantic[hit_humanoid]
         instance[got] = world.clip.track_id[hit_humanoid]
         reflectivity[got] = world.face_reflectivity[hits.face[k]]
-        normal[got] = hits.normal[k]
-
-    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-    cos_incidence = np.abs(np.einsum("ni,ni->n", normal, d))
+        cos_incidence[got] = _cos_incidence(hits.normal[k], d[got])
     return {"t": t, "semantic": semantic, "instance": instance, "reflectivity": reflectivity, "cos_incidence": cos_incidence}
 
 

@@ -14,6 +14,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from simgen.errors import UserError
+from simgen.noise import NoiseConfig
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -42,6 +43,43 @@ class MotionConfig(_Strict):
     )
 
 
+class SceneConfig(_Strict):
+    """What stands on and around the pitch besides the humanoids and the ball."""
+
+    goals: bool = Field(True, description="Both goals: posts, crossbar and net.")
+    net_transmission: float = Field(0.7, ge=0.0, le=1.0, description="Fraction of rays a goal net lets through.")
+    surroundings: bool = Field(False, description="Advertising boards round the pitch and a stand behind the far touchline.")
+
+
+class SensorPose(_Strict):
+    """Where a sensor stands in the pitch frame: metres, and degrees (roll about x, pitch about y
+    (positive: looking up), yaw about z (0: looking along +x, 90: along +y)), applied yaw, pitch, roll."""
+
+    x: float = Field(0.0, ge=-200, le=200)
+    y: float = Field(-36.0, ge=-200, le=200)
+    z: float = Field(4.0, ge=0.0, le=100)
+    roll: float = Field(0.0, ge=-180, le=180)
+    pitch: float = Field(-10.0, ge=-90, le=90)
+    yaw: float = Field(90.0, ge=-360, le=360)
+
+
+class SensorConfig(_Strict):
+    """One LiDAR: a scan-pattern preset (see `simgen pattern --help`) at a pose."""
+
+    name: str = Field("mid100", pattern=r"^[A-Za-z0-9_.-]+$")
+    preset: str = Field("mid100-risley", description="Sensor preset of scan_patterns.")
+    pose: SensorPose = SensorPose()
+
+
+class ScanConfig(_Strict):
+    """How the sensors' shots are grouped into frames."""
+
+    frame_rate_hz: float = Field(10.0, gt=0.0, le=100.0, description="Frames per second.")
+    density: float = Field(1.0, gt=0.0, le=64.0, description="Shots per second as a multiple of the real sensor's.")
+    sweeps_per_frame: int = Field(1, ge=1, le=16, description="Sweeps merged into one frame (the paper: two 20 Hz sweeps).")
+    frames: int | None = Field(None, ge=1, le=1_000_000, description="Frames per clip (default: as many as the motion allows).")
+
+
 class Scenario(_Strict):
     """A whole scenario file."""
 
@@ -49,6 +87,10 @@ class Scenario(_Strict):
     description: str = ""
     seed: int = Field(0, ge=0, lt=2**31, description="Seed of every random choice (engine included).")
     motion: MotionConfig = MotionConfig()
+    scene: SceneConfig = SceneConfig()
+    sensors: list[SensorConfig] = Field(default_factory=lambda: [SensorConfig()], min_length=1, max_length=16)
+    scan: ScanConfig = ScanConfig()
+    noise: NoiseConfig = NoiseConfig()
 
 
 def _field_path(location: tuple) -> str:
