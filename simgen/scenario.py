@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from simgen.errors import UserError
 from simgen.noise import NoiseConfig
@@ -80,6 +80,13 @@ class ScanConfig(_Strict):
     frames: int | None = Field(None, ge=1, le=1_000_000, description="Frames per clip (default: as many as the motion allows).")
 
 
+class DatasetConfig(_Strict):
+    """What `simgen generate` writes."""
+
+    clips: int = Field(1, ge=1, le=100_000, description="Clips: motion sequences of one seed each.")
+    format: Literal["parquet", "kitti", "openpcdet"] = Field("parquet", description="Dataset layout.")
+
+
 class Scenario(_Strict):
     """A whole scenario file."""
 
@@ -91,6 +98,17 @@ class Scenario(_Strict):
     sensors: list[SensorConfig] = Field(default_factory=lambda: [SensorConfig()], min_length=1, max_length=16)
     scan: ScanConfig = ScanConfig()
     noise: NoiseConfig = NoiseConfig()
+    dataset: DatasetConfig = DatasetConfig()
+
+    @model_validator(mode="after")
+    def _motion_covers_the_frames(self) -> "Scenario":
+        motion_s = (self.motion.frames - 1) / self.motion.capture_hz
+        if self.scan.frames is not None and self.scan.frames / self.scan.frame_rate_hz > motion_s + 1e-9:
+            raise ValueError(
+                f"scan.frames: {self.scan.frames} frames at {self.scan.frame_rate_hz:g} Hz need "
+                f"{self.scan.frames / self.scan.frame_rate_hz:.2f} s of motion, motion.frames gives {motion_s:.2f} s"
+            )
+        return self
 
 
 def _field_path(location: tuple) -> str:
@@ -99,6 +117,8 @@ def _field_path(location: tuple) -> str:
 
 def _one_line(error: ValidationError) -> str:
     first = error.errors()[0]
+    if not first["loc"]:  # a check across sections: its message names the fields
+        return first["msg"].removeprefix("Value error, ")
     field = _field_path(first["loc"])
     if first["type"] == "extra_forbidden":
         return f"unknown key '{field}'"

@@ -30,6 +30,12 @@ def test_shipped_scenarios_are_valid(path):
         ({"name": "x", "seed": -1}, "'seed'"),
         ({"name": "has space"}, "'name'"),
         ({"seed": 1}, "missing key 'name'"),
+        ({"name": "x", "scan": {"frames": 200}}, "scan.frames: 200 frames at 10 Hz need 20.00 s of motion"),
+        ({"name": "x", "scan": {"density": 0}}, "'scan.density'"),
+        ({"name": "x", "scan": {"frame_rate_hz": 0}}, "'scan.frame_rate_hz'"),
+        ({"name": "x", "noise": {"range_sigma_m": -0.1}}, "'noise.range_sigma_m'"),
+        ({"name": "x", "sensors": [{"pose": {"pitch": 120}}]}, "'sensors.0.pose.pitch'"),
+        ({"name": "x", "dataset": {"format": "las"}}, "'dataset.format'"),
         (["a", "list"], "expected a mapping"),
     ],
 )
