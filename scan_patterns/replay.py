@@ -1,0 +1,115 @@
+"""`replay`: a recorded pattern file (Livox's official npz or CSV) replayed with continuous time.
+
+A file holds N shots dt apart, the first at t_first (Livox: dt = 10 us, t_first = dt, N = 400,000).
+Shot time t maps to the file position u = ((t - t_first) / dt) mod N; fractional positions (density
+other than x1, or a head time offset) interpolate linearly between neighbouring shots. The file is
+then a loop of N dt seconds that jumps at its seam; every window that needs a shot past the file's
+last one (or before its first) raises a `PatternLoopWarning`.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from scan_patterns.shots import Shots, dirs_from_livox, make_shots
+
+# Livox's official files, as shipped with the project (override with $SIMGEN_LIVOX_DIR).
+OFFICIAL_FILES = {"mid40": "mid40_official_4s.npz", "mid70": "mid70_official_4s.npz"}
+
+
+class PatternLoopWarning(UserWarning):
+    """A replayed pattern file ran out and started again: the pattern repeats and jumps at the seam."""
+
+
+@dataclass(frozen=True)
+class PatternFile:
+    """A recorded pattern: shot times and head-frame unit directions (float64)."""
+
+    name: str
+    t_s: NDArray[np.float64]
+    dirs: NDArray[np.float64]
+
+    @property
+    def dt_s(self) -> float:
+        return float((self.t_s[-1] - self.t_s[0]) / (len(self.t_s) - 1))
+
+    @property
+    def duration_s(self) -> float:
+        return len(self.t_s) * self.dt_s
+
+
+def livox_dir() -> Path:
+    """Folder of the official files: $SIMGEN_LIVOX_DIR, else shared/reference/livox beside the repo."""
+    env = os.environ.get("SIMGEN_LIVOX_DIR")
+    if env:
+        return Path(env)
+    return Path(__file__).resolve().parents[2] / "shared" / "reference" / "livox"
+
+
+def resolve(source: str) -> Path:
+    """Path of a pattern file: an official name ('mid40', 'mid70') or a path to .npz / .csv."""
+    path = livox_dir() / OFFICIAL_FILES[source] if source in OFFICIAL_FILES else Path(source)
+    if not path.is_file():
+        raise ValueError(f"pattern file not found: {path}")
+    return path
+
+
+@functools.lru_cache(maxsize=8)
+def load_pattern_file(source: str) -> PatternFile:
+    """Load a pattern file: npz with t_s, azimuth_deg, zenith_deg, or Livox CSV `time,azimuth,zenith`."""
+    path = resolve(source)
+    if path.suffix == ".npz":
+        with np.load(path) as data:
+            t, az, zen = (np.asarray(data[k], np.float64) for k in ("t_s", "azimuth_deg", "zenith_deg"))
+    else:
+        t, az, zen = _read_csv(path)
+    if len(t) < 2 or np.any(np.diff(t) <= 0):
+        raise ValueError(f"{path}: needs at least 2 shots in increasing time order")
+    return PatternFile(path.name, t, dirs_from_livox(az, zen))
+
+
+def file_shots(source: str) -> Shots:
+    """The file's own shots as `Shots` (head frame), window (t_first - dt, t_last]: the reference."""
+    pattern = load_pattern_file(source)
+    return make_shots(pattern.t_s, pattern.dirs, pattern.t_s[0] - pattern.dt_s, pattern.t_s[-1])
+
+
+def _read_csv(path: Path) -> tuple[NDArray, NDArray, NDArray]:
+    """Columns of a Livox CSV (a header line, then `time,azimuth,zenith` rows; extra columns ignored)."""
+    with open(path) as f:
+        first = f.readline()
+    try:
+        [float(v) for v in first.split(",")[:3]]
+        skip = 0
+    except ValueError:
+        skip = 1
+    data = np.loadtxt(path, delimiter=",", skiprows=skip, usecols=(0, 1, 2), ndmin=2)
+    return data[:, 0], data[:, 1], data[:, 2]
+
+
+def directions(source: str, t_s: NDArray[np.float64]) -> NDArray[np.float32]:
+    """(N, 3) float32 head-frame directions of the file replayed at times `t_s`, looping with a warning."""
+    pattern = load_pattern_file(source)
+    n = len(pattern.t_s)
+    u = (np.asarray(t_s, np.float64) - pattern.t_s[0]) / pattern.dt_s
+    u = np.where(np.abs(u - np.rint(u)) < 1e-6, np.rint(u), u)  # exact file shots stay exact
+    if len(u) and (u.min() < 0 or u.max() > n - 1):
+        warnings.warn(
+            f"replay of {pattern.name} loops past the file's end ({pattern.duration_s:g} s) in "
+            f"({t_s[0]:g}, {t_s[-1]:g}] s: the pattern repeats and jumps at the seam",
+            PatternLoopWarning,
+            stacklevel=3,
+        )
+    u = np.mod(u, n)
+    i = np.floor(u).astype(np.intp)
+    frac = (u - i)[:, None]
+    d = pattern.dirs[i] * (1.0 - frac) + pattern.dirs[(i + 1) % n] * frac
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return d.astype(np.float32)
