@@ -1,0 +1,50 @@
+"""A frame as the reader returns it, in every format, and the class names of the labels.
+
+Coordinates are the pitch frame's (origin at the centre spot, x towards the right goal, y left,
+z up, metres) whatever the format on disk. Fields a format does not hold are None: KITTI and
+OpenPCDet keep only x, y, z, intensity and the boxes with their class (and KITTI tracking the
+track ids); Parquet keeps everything the simulator made.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+PLAYER_CLASS = "Pedestrian"  # KITTI's class for people on foot, as KITTI-trained detectors expect
+OFFICIAL_CLASS = "Official"  # referee and linesmen: people, but not players
+CLASS_NAMES = (PLAYER_CLASS, OFFICIAL_CLASS)
+TEAMS = ("left", "right", "official")
+
+
+def class_names(team: NDArray[np.str_]) -> NDArray[np.str_]:
+    """Class per humanoid from its team: officials are `Official`, players `Pedestrian`."""
+    return np.where(np.asarray(team) == "official", OFFICIAL_CLASS, PLAYER_CLASS).astype(np.str_)
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One frame of one clip: points and boxes, numpy arrays, pitch frame."""
+
+    clip: str
+    index: int  # frame index in the clip, from 0
+    points_m: NDArray[np.float32]  # (P, 3) x, y, z
+    intensity: NDArray[np.uint8]  # (P,) 0-255
+    boxes: NDArray[np.float32]  # (H, 7) x, y, z centre, length, width, height, yaw (radians)
+    class_name: NDArray[np.str_]  # (H,) Pedestrian or Official
+    track_id: NDArray[np.int32] | None = None  # (H,) Parquet and KITTI tracking
+    # Parquet only:
+    time_s: float | None = None  # game time of the start of the sweep(s), seconds
+    label_time_s: float | None = None  # game time the boxes describe, seconds
+    time_offset_s: NDArray[np.float32] | None = None  # (P,) since the frame's start
+    sensor: NDArray[np.uint8] | None = None  # (P,)
+    head: NDArray[np.uint8] | None = None  # (P,)
+    instance_id: NDArray[np.int32] | None = None  # (P,) track id, 1000 ball, -1 none
+    semantic: NDArray[np.uint8] | None = None  # (P,) index into simgen.scene.SEMANTIC_NAMES
+    team: NDArray[np.str_] | None = None  # (H,) left, right, official
+    role: NDArray[np.str_] | None = None  # (H,)
+    velocity_mps: NDArray[np.float32] | None = None  # (H, 3)
+    keypoints_m: NDArray[np.float32] | None = None  # (H, 12, 3)
+    num_points: NDArray[np.int32] | None = None  # (H,)

@@ -1,0 +1,140 @@
+"""KITTI-style layouts: `kitti` (object detection) and `kitti_tracking`.
+
+kitti:          training/velodyne/NNNNNN.bin, training/label_2/NNNNNN.txt, training/calib/NNNNNN.txt,
+                ImageSets/{train,val,trainval}.txt; NNNNNN the global sample number (simgen.datasets.samples)
+kitti_tracking: training/velodyne/SSSS/NNNNNN.bin, training/label_02/SSSS.txt (frame and track id
+                first), training/calib/SSSS.txt; SSSS the clip index, NNNNNN the frame index
+
+.bin: float32 x, y, z, intensity / 255 per point, pitch frame. Labels: `Pedestrian` (players) or
+`Official` (referee, linesmen), in the virtual camera of `kitti_camera`; truncation 0; occlusion 0,
+or 3 (unknown) for a box with no point on it. The ball is not labelled.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from simgen.datasets.frame import CLASS_NAMES, Frame, class_names
+from simgen.datasets.kitti_camera import calib_lines, kitti_boxes, pitch_boxes
+from simgen.datasets.records import FileRecord, write_bytes, write_text
+from simgen.datasets.samples import float32_text, float64_text, from_xyzi, sample_name, to_xyzi
+from simgen.datasets.verify import DatasetFiles
+from simgen.errors import UserError
+
+if TYPE_CHECKING:
+    from simgen.frames import LabelledFrame
+
+UNKNOWN_OCCLUSION = 3
+OPEN_CLIPS = 4  # tracking label files the reader keeps parsed
+
+
+def velodyne_path(tracking: bool, clip_index: int, index: int) -> str:
+    if tracking:
+        return f"training/velodyne/{clip_index:04d}/{index:06d}.bin"
+    return f"training/velodyne/{sample_name(clip_index, index)}.bin"
+
+
+def label_path(tracking: bool, clip_index: int, index: int = 0) -> str:
+    return f"training/label_02/{clip_index:04d}.txt" if tracking else f"training/label_2/{sample_name(clip_index, index)}.txt"
+
+
+def calib_path(tracking: bool, clip_index: int, index: int = 0) -> str:
+    return f"training/calib/{clip_index:04d}.txt" if tracking else f"training/calib/{sample_name(clip_index, index)}.txt"
+
+
+def label_lines(frame: LabelledFrame) -> list[str]:
+    """Object label lines, `type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry` (tracking puts frame and track id first)."""
+    labels = frame.labels
+    fields = kitti_boxes(labels.boxes)
+    lines = []
+    for i, name in enumerate(class_names(labels.team)):
+        occluded = 0 if labels.num_points[i] > 0 else UNKNOWN_OCCLUSION
+        bbox = " ".join(f"{v:.2f}" for v in fields["bbox"][i])
+        dims = " ".join(float32_text(v) for v in fields["dims"][i])
+        location = " ".join(float64_text(v) for v in fields["location"][i])
+        lines.append(f"{name} 0 {occluded} {fields['alpha'][i]:.2f} {bbox} {dims} {location} {float64_text(fields['ry'][i])}")
+    return lines
+
+
+def write_kitti_clip(root: Path, frames: Sequence[LabelledFrame], clip_index: int, tracking: bool) -> list[FileRecord]:
+    records = []
+    for frame in frames:
+        xyzi = to_xyzi(frame.scan.points_m, frame.scan.intensity)
+        records.append(write_bytes(root, velodyne_path(tracking, clip_index, frame.index), xyzi.tobytes(), len(xyzi)))
+        if not tracking:
+            records.append(write_text(root, label_path(False, clip_index, frame.index), label_lines(frame)))
+            records.append(write_text(root, calib_path(False, clip_index, frame.index), calib_lines(False)))
+    if tracking:
+        lines = [
+            f"{frame.index} {track} {line}"
+            for frame in frames
+            for track, line in zip(frame.labels.track_id, label_lines(frame))
+        ]
+        records.append(write_text(root, label_path(True, clip_index), lines))
+        records.append(write_text(root, calib_path(True, clip_index), calib_lines(True)))
+    return records
+
+
+def parse_labels(text: str, path: Path, tracking: bool) -> dict[str, NDArray]:
+    """Label lines -> frame, track_id (tracking), class_name and pitch-frame boxes."""
+    leading = 2 if tracking else 0
+    rows = [line.split() for line in text.splitlines() if line.strip()]
+    for number, row in enumerate(rows, 1):
+        if len(row) != leading + 15 or row[leading] not in CLASS_NAMES:
+            raise UserError(f"{path}: line {number} is not a simgen KITTI label ({' '.join(row[: leading + 1])} ...)")
+    try:
+        values = np.array([row[leading + 8 : leading + 15] for row in rows], np.float64).reshape(-1, 7)
+        ids = np.array([row[:2] for row in rows] if tracking else np.zeros((len(rows), 2)), np.int64).reshape(-1, 2)
+    except ValueError:
+        raise UserError(f"{path}: a label has a field that is not a number") from None
+    return {
+        "frame": ids[:, 0],
+        "track_id": ids[:, 1].astype(np.int32) if tracking else None,
+        "class_name": np.array([row[leading] for row in rows], np.str_),
+        "boxes": pitch_boxes(values[:, :3], values[:, 3:6], values[:, 6]),
+    }
+
+
+def read_velodyne(data: bytes, path: Path, rows: int) -> tuple[NDArray[np.float32], NDArray[np.uint8]]:
+    if len(data) % 16 or len(data) // 16 != rows:
+        raise UserError(f"{path}: {len(data)} bytes are not the {rows} points x 4 float32 the manifest lists")
+    return from_xyzi(np.frombuffer(data, np.float32).reshape(-1, 4))
+
+
+class KittiReader:
+    """Frames of a `kitti` or `kitti_tracking` dataset."""
+
+    def __init__(self, files: DatasetFiles, clip_indices: dict[str, int], tracking: bool):
+        self.files = files
+        self.clip_indices = clip_indices
+        self.tracking = tracking
+        self._labels = functools.lru_cache(maxsize=OPEN_CLIPS)(self._read_labels)
+
+    def _read_labels(self, clip_index: int, index: int) -> dict[str, NDArray]:
+        calib = calib_path(self.tracking, clip_index, index)
+        if self.files.read(calib).decode(errors="replace").splitlines() != calib_lines(self.tracking):
+            raise UserError(f"{self.files.root / calib}: not simgen's virtual camera (see the dataset README)")
+        relative = label_path(self.tracking, clip_index, index)
+        return parse_labels(self.files.read(relative).decode(errors="replace"), self.files.root / relative, self.tracking)
+
+    def frame(self, clip: str, index: int) -> Frame:
+        clip_index = self.clip_indices[clip]
+        velodyne = velodyne_path(self.tracking, clip_index, index)
+        points, intensity = read_velodyne(self.files.read(velodyne), self.files.root / velodyne, self.files.rows(velodyne))
+        labels = self._labels(clip_index, 0 if self.tracking else index)
+        mine = labels["frame"] == index if self.tracking else slice(None)
+        return Frame(
+            clip=clip,
+            index=index,
+            points_m=points,
+            intensity=intensity,
+            boxes=labels["boxes"][mine],
+            class_name=labels["class_name"][mine],
+            track_id=labels["track_id"][mine] if self.tracking else None,
+        )

@@ -1,0 +1,95 @@
+"""OpenPCDet's custom format: `points/NNNNNN.npy`, `labels/NNNNNN.txt`, `ImageSets/{train,val}.txt`.
+
+Points: .npy float32 (P, 4) x, y, z, intensity / 255, in the pitch frame as is (so OpenPCDet's
+`POINT_CLOUD_RANGE` must cover the pitch, 105 x 68 m about the origin, not a range ahead of a
+sensor). Labels: one line
+per humanoid, `x y z dx dy dz heading name`: centre, length (along the heading), width, height,
+yaw counter-clockwise from +x (OpenPCDet's own box convention, which is ours), name `Pedestrian`
+or `Official`. NNNNNN is the global sample number of simgen.datasets.samples.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from simgen.datasets.frame import CLASS_NAMES, Frame, class_names
+from simgen.datasets.records import FileRecord, write_bytes, write_text
+from simgen.datasets.samples import float32_text, from_xyzi, sample_name, to_xyzi
+from simgen.datasets.verify import DatasetFiles
+from simgen.errors import UserError
+
+if TYPE_CHECKING:
+    from simgen.frames import LabelledFrame
+
+
+def points_path(clip_index: int, index: int) -> str:
+    return f"points/{sample_name(clip_index, index)}.npy"
+
+
+def labels_path(clip_index: int, index: int) -> str:
+    return f"labels/{sample_name(clip_index, index)}.txt"
+
+
+def npy_bytes(array: np.ndarray) -> bytes:
+    buffer = io.BytesIO()
+    np.save(buffer, array, allow_pickle=False)
+    return buffer.getvalue()
+
+
+def label_lines(frame: LabelledFrame) -> list[str]:
+    boxes = np.asarray(frame.labels.boxes, np.float32).reshape(-1, 7)
+    names = class_names(frame.labels.team)
+    return [" ".join([*(float32_text(v) for v in box), name]) for box, name in zip(boxes, names)]
+
+
+def write_openpcdet_clip(root: Path, frames: Sequence[LabelledFrame], clip_index: int) -> list[FileRecord]:
+    records = []
+    for frame in frames:
+        xyzi = to_xyzi(frame.scan.points_m, frame.scan.intensity)
+        records.append(write_bytes(root, points_path(clip_index, frame.index), npy_bytes(xyzi), len(xyzi)))
+        records.append(write_text(root, labels_path(clip_index, frame.index), label_lines(frame)))
+    return records
+
+
+def parse_labels(text: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(H, 7) float32 boxes and (H,) class names."""
+    rows = [line.split() for line in text.splitlines() if line.strip()]
+    for number, row in enumerate(rows, 1):
+        if len(row) != 8 or row[7] not in CLASS_NAMES:
+            raise UserError(f"{path}: line {number} is not `x y z dx dy dz heading name` with a simgen class")
+    try:
+        boxes = np.array([row[:7] for row in rows], np.float32).reshape(-1, 7)
+    except ValueError:
+        raise UserError(f"{path}: a label has a field that is not a number") from None
+    return boxes, np.array([row[7] for row in rows], np.str_)
+
+
+def read_points(data: bytes, path: Path, rows: int) -> np.ndarray:
+    try:
+        xyzi = np.load(io.BytesIO(data), allow_pickle=False)
+    except (ValueError, OSError, EOFError) as error:
+        raise UserError(f"{path}: not a readable .npy file ({error})") from None
+    if xyzi.dtype != np.float32 or xyzi.shape != (rows, 4):
+        raise UserError(f"{path}: {xyzi.dtype} {xyzi.shape}, expected float32 ({rows}, 4)")
+    return xyzi
+
+
+class OpenPCDetReader:
+    """Frames of an `openpcdet` dataset."""
+
+    def __init__(self, files: DatasetFiles, clip_indices: dict[str, int]):
+        self.files = files
+        self.clip_indices = clip_indices
+
+    def frame(self, clip: str, index: int) -> Frame:
+        clip_index = self.clip_indices[clip]
+        points = points_path(clip_index, index)
+        labels = labels_path(clip_index, index)
+        xyz, intensity = from_xyzi(read_points(self.files.read(points), self.files.root / points, self.files.rows(points)))
+        boxes, names = parse_labels(self.files.read(labels).decode(errors="replace"), self.files.root / labels)
+        return Frame(clip=clip, index=index, points_m=xyz, intensity=intensity, boxes=boxes, class_name=names)

@@ -1,0 +1,86 @@
+"""`open(path)`: frames by clip and index, and sequences of consecutive frames, in every format.
+
+The format comes from manifest.json; every file is checked against its sha256 there the first
+time it is read (`verify=False` skips that; `Dataset.verify()` checks them all at once).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+from simgen.datasets.frame import Frame
+from simgen.datasets.kitti import KittiReader
+from simgen.datasets.manifest import ClipEntry, Manifest, read_manifest
+from simgen.datasets.openpcdet import OpenPCDetReader
+from simgen.datasets.parquet import ParquetReader
+from simgen.datasets.verify import DatasetFiles
+from simgen.errors import UserError
+
+
+class Dataset:
+    """A written dataset: `clips`, `num_frames(clip)`, `frame(clip, index)`, `sequence(...)`, iteration."""
+
+    def __init__(self, root: Path, manifest: Manifest, verify: bool = True):
+        self.root = root
+        self.manifest = manifest
+        self.format = manifest.format
+        self.files = DatasetFiles(root, list(manifest.files), verify)
+        self._clips = {c.clip: c for c in manifest.clips}
+        indices = {c.clip: c.clip_index for c in manifest.clips}
+        if self.format == "parquet":
+            self._reader = ParquetReader(self.files)
+        elif self.format == "openpcdet":
+            self._reader = OpenPCDetReader(self.files, indices)
+        else:
+            self._reader = KittiReader(self.files, indices, tracking=self.format == "kitti_tracking")
+
+    @property
+    def clips(self) -> tuple[str, ...]:
+        """Clip ids in clip-index order."""
+        return tuple(self._clips)
+
+    def split(self, clip: str) -> str:
+        """`train` or `val`."""
+        return self._entry(clip).split
+
+    def num_frames(self, clip: str) -> int:
+        return self._entry(clip).frames
+
+    def _entry(self, clip: str) -> ClipEntry:
+        entry = self._clips.get(clip)
+        if entry is None:
+            more = ", ..." if len(self.clips) > 5 else ""
+            raise UserError(f"{self.root}: no clip {clip!r} (clips: {', '.join(self.clips[:5])}{more})")
+        return entry
+
+    def frame(self, clip: str, index: int) -> Frame:
+        frames = self.num_frames(clip)
+        if not 0 <= index < frames:
+            raise UserError(f"{self.root}: clip {clip} has frames 0-{frames - 1}, not {index}")
+        return self._reader.frame(clip, index)
+
+    def sequence(self, clip: str, index: int, length: int = 3) -> list[Frame]:
+        """`length` consecutive frames of `clip` ending at `index`, oldest first."""
+        if length < 1 or index - length + 1 < 0:
+            raise UserError(f"{self.root}: clip {clip} has no {length} frames ending at frame {index}")
+        return [self.frame(clip, i) for i in range(index - length + 1, index + 1)]
+
+    def __len__(self) -> int:
+        return sum(c.frames for c in self._clips.values())
+
+    def __iter__(self) -> Iterator[Frame]:
+        for clip in self.clips:
+            for index in range(self.num_frames(clip)):
+                yield self.frame(clip, index)
+
+    def verify(self) -> None:
+        """Check every file's size and sha256 against the manifest now."""
+        self.files.verify_all()
+
+
+def open_dataset(path: str | Path, verify: bool = True) -> Dataset:
+    """Open a dataset that simgen wrote, in any of its formats."""
+    root = Path(path)
+    manifest = read_manifest(root)
+    return Dataset(root, manifest, verify)

@@ -1,0 +1,60 @@
+"""What the KITTI-style formats (KITTI, OpenPCDet custom) share: sample numbers, x-y-z-intensity
+arrays, number text and the train/val split.
+
+Sample numbers are global and fixed by (clip index, frame index) alone, so clips written in
+parallel never collide: number = clip_index * MAX_FRAMES_PER_CLIP + frame index, written with
+at least 6 digits (`000000`, ..., `010003` is frame 3 of clip index 1).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from simgen.errors import UserError
+
+MAX_FRAMES_PER_CLIP = 10_000
+INTENSITY_SCALE = 255.0  # stored intensity = reflectivity / 255, in [0, 1] as KITTI's
+VAL_FRACTION = 0.2  # of the clips (the last ones), when there are two or more
+
+
+def sample_number(clip_index: int, index: int) -> int:
+    if not 0 <= index < MAX_FRAMES_PER_CLIP:
+        raise UserError(f"frame index {index}: KITTI-style formats hold at most {MAX_FRAMES_PER_CLIP} frames per clip")
+    return clip_index * MAX_FRAMES_PER_CLIP + index
+
+
+def sample_name(clip_index: int, index: int) -> str:
+    return f"{sample_number(clip_index, index):06d}"
+
+
+def to_xyzi(points_m: NDArray[np.float32], intensity: NDArray[np.uint8]) -> NDArray[np.float32]:
+    """(P, 4) float32: x, y, z (metres, pitch frame), intensity / 255."""
+    scaled = (intensity.astype(np.float32) / np.float32(INTENSITY_SCALE))[:, None]
+    return np.ascontiguousarray(np.concatenate([points_m.astype(np.float32), scaled], axis=1))
+
+
+def from_xyzi(xyzi: NDArray[np.float32]) -> tuple[NDArray[np.float32], NDArray[np.uint8]]:
+    """Inverse of `to_xyzi`, exact: points (P, 3) and intensity (P,) 0-255."""
+    intensity = np.rint(xyzi[:, 3].astype(np.float64) * INTENSITY_SCALE).astype(np.uint8)
+    return np.ascontiguousarray(xyzi[:, :3]), intensity
+
+
+def float32_text(value: float) -> str:
+    """Shortest decimal that reads back as the same float32."""
+    return np.format_float_positional(np.float32(value), unique=True, trim="-")
+
+
+def float64_text(value: float) -> str:
+    """Shortest decimal that reads back as the same float64."""
+    return repr(float(value))
+
+
+def val_clips(clip_indices: Sequence[int]) -> set[int]:
+    """The clips of the validation split: the last VAL_FRACTION of them (at least one of two or more)."""
+    ordered = sorted(clip_indices)
+    if len(ordered) < 2:
+        return set()
+    return set(ordered[-max(1, round(VAL_FRACTION * len(ordered))) :])

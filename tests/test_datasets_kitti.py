@@ -1,0 +1,73 @@
+"""The KITTI virtual camera: labels as KITTI tools read them, 2D boxes tall enough to be kept."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from dataset_factory import make_clip
+
+from simgen.datasets import kitti_camera as camera
+from simgen.datasets.kitti import UNKNOWN_OCCLUSION, label_lines, parse_labels
+
+
+def _boxes(rng: np.random.Generator, n: int, height_m: float) -> np.ndarray:
+    xy = np.column_stack([rng.uniform(-camera.MAX_X_M, camera.MAX_X_M, n), rng.uniform(-40, 40, n)])
+    sizes = np.column_stack([rng.uniform(0.2, 1.2, n), rng.uniform(0.2, 1.0, n), np.full(n, height_m)])
+    return np.column_stack([xy, sizes[:, 2] / 2, sizes, rng.uniform(-np.pi, np.pi, n)]).astype(np.float32)
+
+
+def test_calib_matches_the_conversion_kitti_tools_apply():
+    calib = {line.split(":")[0]: np.array(line.split(":")[1].split(), float) for line in camera.calib_lines(False)}
+    velo_to_cam = calib["Tr_velo_to_cam"].reshape(3, 4)
+    p2 = calib["P2"].reshape(3, 4)
+    rng = np.random.default_rng(0)
+    points = rng.uniform(-50, 50, (100, 3)).astype(np.float32).astype(np.float64)  # exact for float32 inputs
+    cam = points @ velo_to_cam[:, :3].T + velo_to_cam[:, 3]
+    np.testing.assert_array_equal(cam, camera.to_camera(points))
+    np.testing.assert_array_equal(camera.from_camera(cam), points)
+    # A box's 2D box is its corners projected with P2, as OpenPCDet's and mmdet3d's KITTI tools do.
+    box = _boxes(rng, 1, 1.8).astype(np.float64)
+    corners = camera.to_camera(camera.corners(box)[0])
+    uvw = np.column_stack([corners, np.ones(8)]) @ p2.T
+    uv = uvw[:, :2] / uvw[:, 2:]
+    np.testing.assert_allclose(camera.image_boxes(box)[0], [*uv.min(0), *uv.max(0)])
+    tracking = camera.calib_lines(True)
+    assert [line.split()[0] for line in tracking] == ["P0:", "P1:", "P2:", "P3:", "R_rect", "Tr_velo_cam", "Tr_imu_velo"]
+
+
+def test_2d_boxes_of_humanoids_are_tall_enough_for_kitti_evaluators():
+    boxes = _boxes(np.random.default_rng(1), 2000, camera.MIN_BOX_HEIGHT_M)
+    bbox = camera.image_boxes(boxes.astype(np.float64))
+    assert (bbox[:, 3] - bbox[:, 1]).min() >= camera.MIN_BOX_PX
+
+
+def test_the_nominal_image_holds_the_pitch_and_its_players():
+    x, y, z = np.meshgrid([-camera.MAX_X_M, camera.MAX_X_M], [-60.0, 60.0], [-1.0, 6.0])
+    cam = camera.to_camera(np.column_stack([x.ravel(), y.ravel(), z.ravel()]))
+    u = camera.FOCAL_PX * cam[:, 0] / cam[:, 2] + camera.PRINCIPAL_PX[0]
+    v = camera.FOCAL_PX * cam[:, 1] / cam[:, 2] + camera.PRINCIPAL_PX[1]
+    assert u.min() >= 0 and u.max() <= camera.IMAGE_SIZE_PX[0]
+    assert v.min() >= 0 and v.max() <= camera.IMAGE_SIZE_PX[1]
+
+
+@pytest.mark.parametrize("yaw", [0.0, np.pi / 2, -np.pi / 2, np.pi, -3.0, 3.0])
+def test_rotation_y_is_the_kitti_convention(yaw):
+    box = np.array([[10.0, -5.0, 0.9, 1.0, 0.5, 1.8, yaw]], np.float32)
+    fields = camera.kitti_boxes(box)
+    expected = -float(box[0, 6]) - np.pi / 2
+    assert np.cos(fields["ry"][0]) == pytest.approx(np.cos(expected)) and np.sin(fields["ry"][0]) == pytest.approx(np.sin(expected))
+    assert -np.pi < fields["ry"][0] <= np.pi
+    np.testing.assert_array_equal(fields["location"][0], [5.0, 0.0, 1010.0])  # bottom centre, camera frame
+    np.testing.assert_array_equal(fields["dims"][0], np.array([1.8, 0.5, 1.0], np.float32))
+
+
+def test_label_lines_have_kitti_fields_and_mark_boxes_without_points():
+    frame = make_clip("clip_0000", 1, seed=3)[0]
+    lines = label_lines(frame)
+    rows = [line.split() for line in lines]
+    assert all(len(row) == 15 for row in rows)
+    occluded = np.array([int(row[2]) for row in rows])
+    np.testing.assert_array_equal(occluded == UNKNOWN_OCCLUSION, frame.labels.num_points == 0)
+    assert (frame.labels.num_points == 0).any()
+    parsed = parse_labels("\n".join(lines), "label.txt", tracking=False)
+    np.testing.assert_array_equal(parsed["boxes"][:, :6], frame.labels.boxes[:, :6])

@@ -1,0 +1,95 @@
+"""The Parquet dataset as other tools see it: pyarrow.dataset, pandas, polars and duckdb read it as is."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import duckdb
+import numpy as np
+import pandas as pd
+import polars as pl
+import pyarrow.dataset as ds
+import pyarrow.parquet as pq
+import pytest
+from dataset_factory import sample_clips, write_dataset
+
+import simgen.datasets
+from simgen.datasets.manifest import MANIFEST_NAME
+from simgen.datasets.records import sha256_file
+from simgen.datasets.schema import METADATA_KEY, TABLES
+from simgen.errors import UserError
+
+CLIPS = sample_clips()
+POINTS = sum(len(f.scan.points_m) for frames in CLIPS for f in frames)
+BOXES = sum(len(f.labels.boxes) for frames in CLIPS for f in frames)
+
+
+@pytest.fixture(scope="module")
+def root(tmp_path_factory):
+    root = tmp_path_factory.mktemp("parquet")
+    write_dataset(root, "parquet", CLIPS)
+    return root
+
+
+def test_duckdb_counts_the_points(root):
+    assert duckdb.sql(f"select count(*) from '{root}/points/**/*.parquet'").fetchall() == [(POINTS,)]
+    per_clip = duckdb.sql(f"select clip, count(*) from '{root}/boxes/**/*.parquet' group by clip order by clip").fetchall()
+    assert per_clip == [(frames[0].clip, sum(len(f.labels.boxes) for f in frames)) for frames in CLIPS]
+
+
+def test_the_duckdb_command_line_counts_the_points(root):
+    duckdb_cli = Path(sys.executable).parent / "duckdb"  # the duckdb-cli package of the test extra
+    query = f"select count(*) from '{root}/points/**/*.parquet'"
+    command = [duckdb_cli, "-csv", "-noheader", "-c", query]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=60, check=True)
+    assert int(result.stdout) == POINTS
+
+
+def test_pandas_polars_and_pyarrow_read_every_table(root):
+    assert len(pd.read_parquet(root / "points")) == POINTS
+    assert pl.scan_parquet(f"{root}/points/**/*.parquet", hive_partitioning=True).select(pl.len()).collect().item() == POINTS
+    points = ds.dataset(root / "points", partitioning="hive").to_table()
+    assert points.num_rows == POINTS and "clip" in points.column_names
+    assert len(pd.read_parquet(root / "boxes")) == BOXES
+    assert pl.read_parquet(f"{root}/frames/**/*.parquet", hive_partitioning=True).height == sum(map(len, CLIPS))
+    assert ds.dataset(root / "sensors", partitioning="hive").to_table().num_rows == len(CLIPS)
+
+
+def test_points_have_a_row_group_per_frame_and_documented_fields(root):
+    for frames in CLIPS:
+        parquet = pq.ParquetFile(root / f"points/clip={frames[0].clip}/part-0.parquet")
+        groups = [parquet.metadata.row_group(i).num_rows for i in range(parquet.metadata.num_row_groups)]
+        assert groups == [len(f.scan.points_m) for f in frames]
+        assert parquet.metadata.row_group(0).column(1).compression == "ZSTD"
+    for name, schema in TABLES.items():
+        for field in schema:
+            assert field.metadata[b"doc"], (name, field.name)
+    assert TABLES["points"].field("x").metadata[b"unit"] == b"m"
+    keypoints = pd.read_parquet(root / "boxes")["keypoints_m"].iloc[0]
+    np.testing.assert_array_equal(keypoints, CLIPS[0][0].labels.keypoints_m[0].reshape(-1))
+
+
+def test_a_table_of_another_schema_version_is_rejected(tmp_path):
+    write_dataset(tmp_path, "parquet", CLIPS[:1])
+    relative = "frames/clip=clip_0000/part-0.parquet"
+    table = pq.read_table(tmp_path / relative, partitioning=None)
+    metadata = json.loads(table.schema.metadata[METADATA_KEY])
+    foreign = table.replace_schema_metadata({METADATA_KEY: json.dumps({**metadata, "schema_version": 99})})
+    pq.write_table(foreign, tmp_path / relative)
+    manifest = json.loads((tmp_path / MANIFEST_NAME).read_text())
+    for entry in manifest["files"]:
+        if entry["path"] == relative:
+            entry.update(bytes=(tmp_path / relative).stat().st_size, sha256=sha256_file(tmp_path / relative))
+    (tmp_path / MANIFEST_NAME).write_text(json.dumps(manifest))
+    with pytest.raises(UserError, match=r"part-0.parquet: dataset schema version 99, this simgen reads 1$"):
+        simgen.datasets.open(tmp_path).frame("clip_0000", 0)
+
+
+def test_the_ball_instance_id_is_the_renderer_s():
+    from simgen.datasets.schema import BALL_INSTANCE_ID
+    from simgen.render import BALL_INSTANCE_ID as RENDERED
+
+    assert BALL_INSTANCE_ID == RENDERED

@@ -1,0 +1,99 @@
+"""Every format reads back, through simgen.datasets.open, the points and boxes it was given."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from dataset_factory import sample_clips, write_dataset
+
+import simgen.datasets
+from simgen.datasets import FORMATS
+from simgen.datasets.frame import class_names
+from simgen.errors import UserError
+
+CLIPS = sample_clips()
+
+
+@pytest.fixture(scope="module")
+def datasets(tmp_path_factory):
+    root = tmp_path_factory.mktemp("datasets")
+    for format in FORMATS:
+        write_dataset(root / format, format, CLIPS)
+    return {format: simgen.datasets.open(root / format) for format in FORMATS}
+
+
+def _same_yaw(a: np.ndarray, b: np.ndarray) -> bool:
+    return bool(np.all(np.abs(np.angle(np.exp(1j * (a.astype(np.float64) - b))) <= 4e-7)))
+
+
+def _assert_same_boxes(got: np.ndarray, want: np.ndarray) -> None:
+    assert got.dtype == np.float32 and got.shape == want.shape
+    np.testing.assert_array_equal(got[:, :6], want[:, :6])  # exact: the conversions are
+    assert _same_yaw(got[:, 6], want[:, 6])
+
+
+@pytest.mark.parametrize("format", FORMATS)
+def test_every_frame_round_trips(datasets, format):
+    data = datasets[format]
+    assert data.clips == tuple(c[0].clip for c in CLIPS)
+    assert len(data) == sum(map(len, CLIPS))
+    for frames in CLIPS:
+        assert data.num_frames(frames[0].clip) == len(frames)
+        for source in frames:
+            frame = data.frame(source.clip, source.index)
+            assert (frame.clip, frame.index) == (source.clip, source.index)
+            assert frame.points_m.dtype == np.float32 and frame.intensity.dtype == np.uint8
+            np.testing.assert_array_equal(frame.points_m, source.scan.points_m)
+            np.testing.assert_array_equal(frame.intensity, source.scan.intensity)
+            _assert_same_boxes(frame.boxes, source.labels.boxes)
+            np.testing.assert_array_equal(frame.class_name, class_names(source.labels.team))
+            if format in ("parquet", "kitti_tracking"):
+                np.testing.assert_array_equal(frame.track_id, source.labels.track_id)
+            else:
+                assert frame.track_id is None
+
+
+def test_parquet_keeps_everything_the_simulator_made(datasets):
+    source = CLIPS[1][3]
+    frame = datasets["parquet"].frame(source.clip, source.index)
+    scan, labels = source.scan, source.labels
+    for name in ("time_offset_s", "sensor", "head", "instance_id", "semantic"):
+        np.testing.assert_array_equal(getattr(frame, name), getattr(scan, name), err_msg=name)
+    for name in ("team", "role", "velocity_mps", "keypoints_m", "num_points"):
+        np.testing.assert_array_equal(getattr(frame, name), getattr(labels, name), err_msg=name)
+    assert (frame.time_s, frame.label_time_s) == (source.time_s, source.label_time_s)
+    np.testing.assert_array_equal(frame.boxes, labels.boxes)
+
+
+@pytest.mark.parametrize("format", ["kitti", "kitti_tracking", "openpcdet"])
+def test_formats_agree_with_parquet(datasets, format):
+    for parquet, other in zip(datasets["parquet"], datasets[format]):
+        np.testing.assert_array_equal(other.points_m, parquet.points_m)
+        np.testing.assert_array_equal(other.intensity, parquet.intensity)
+        _assert_same_boxes(other.boxes, parquet.boxes)
+
+
+def test_sequence_is_consecutive_frames_ending_at_index(datasets):
+    data = datasets["kitti_tracking"]
+    frames = data.sequence("clip_0001", 3, length=3)
+    assert [f.index for f in frames] == [1, 2, 3]
+    np.testing.assert_array_equal(frames[-1].points_m, CLIPS[1][3].scan.points_m)
+    with pytest.raises(UserError, match="no 3 frames ending at frame 1"):
+        data.sequence("clip_0001", 1, length=3)
+
+
+def test_bad_clip_or_index_is_one_line(datasets):
+    data = datasets["parquet"]
+    with pytest.raises(UserError, match="no clip 'clip_9'"):
+        data.frame("clip_9", 0)
+    with pytest.raises(UserError, match="frames 0-3, not 4"):
+        data.frame("clip_0000", 4)
+
+
+def test_split_is_by_clip(datasets):
+    data = datasets["openpcdet"]
+    assert [data.split(c) for c in data.clips] == ["train", "train", "val"]
+    root = data.root / "ImageSets"
+    val = (root / "val.txt").read_text().split()
+    assert val == ["020000", "020001"]
+    assert len((root / "train.txt").read_text().split()) == 8
