@@ -157,3 +157,27 @@ def test_fast_player_smears_within_a_sweep():
     elapsed_s = frame.time_offset_s[late].mean() - frame.time_offset_s[early].mean()
     assert early.sum() > 20 and late.sum() > 20
     assert shift_m == pytest.approx(8.0 * elapsed_s, abs=0.1)
+
+
+def test_captured_clip_points_fall_with_range_and_shots_add_up(motion_clip):
+    """A Mid-100 on the touchline over the committed engine clip: the sparse-LiDAR reality."""
+    from simgen.pipeline import render_clip
+    from simgen.scenario import parse_scenario
+
+    scenario = parse_scenario({"name": "t", "scan": {"frames": 20}, "scene": {"surroundings": True}})
+    frames = list(render_clip(scenario, motion_clip, 0))
+    assert len(frames) == 20
+    ranges, counts = [], []
+    sensor = np.array([scenario.sensors[0].pose.x, scenario.sensors[0].pose.y, scenario.sensors[0].pose.z])
+    for frame in frames:
+        scan = frame.scan
+        assert scan.shots == 30000  # Mid-100 at x1, 10 Hz
+        assert len(scan.points_m) == scan.shots - scan.dropped - scan.missed
+        players = frame.labels.team != "official"
+        ranges.append(np.linalg.norm(frame.labels.boxes[players, :2] - sensor[:2], axis=1))
+        counts.append(frame.labels.num_points[players])
+        assert set(np.unique(scan.instance_id)) <= set(frame.labels.track_id) | {-1, 1000}
+    ranges, counts = np.concatenate(ranges), np.concatenate(counts)
+    near, middle, far = (np.median(counts[(ranges >= lo) & (ranges < hi)]) for lo, hi in ((0, 25), (25, 45), (45, 120)))
+    assert near > middle > far, (near, middle, far)
+    assert (counts == 0).any()  # some players get no point at all in a frame

@@ -1,0 +1,69 @@
+"""One clip through the pipeline: motion -> scene -> scan -> labels, frame by frame.
+
+Randomness: the engine's seed and every frame's noise come from `numpy.random.SeedSequence`
+keyed by (scenario seed, clip index[, frame index]), so clips and frames can be made in any
+order, by any worker, with identical results.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Iterator
+
+import numpy as np
+
+from simgen.errors import UserError
+from simgen.frames import LabelledFrame
+from simgen.labels import frame_labels
+from simgen.motion import MotionClip
+from simgen.render import World, interpolate_clip, render_frame
+from simgen.rig import frame_rays
+from simgen.scenario import Scenario
+from simgen.scene import build_static_scene
+from simgen.skeleton import KEYPOINT_INDEX
+
+VELOCITY_DT_S = 0.05  # half-width of the central difference for label velocities
+
+
+def clip_name(clip_index: int) -> str:
+    return f"clip_{clip_index:04d}"
+
+
+def engine_seed(scenario: Scenario, clip_index: int) -> int:
+    """The football engine's seed for a clip (the first clip of seed S plays as `simgen capture --seed S`)."""
+    if clip_index == 0:
+        return scenario.seed
+    return int(np.random.SeedSequence([scenario.seed, clip_index]).generate_state(1)[0] % 2**31)
+
+
+def frame_count(scenario: Scenario, clip: MotionClip) -> int:
+    """Frames the clip's motion covers at the scan's frame rate (or the scenario's `scan.frames`)."""
+    span_s = clip.time_s[-1] - clip.time_s[0]
+    available = math.floor(span_s * scenario.scan.frame_rate_hz + 1e-9)
+    wanted = scenario.scan.frames or available
+    if wanted > available:
+        raise UserError(
+            f"scan.frames: {wanted} frames at {scenario.scan.frame_rate_hz:g} Hz need "
+            f"{wanted / scenario.scan.frame_rate_hz:.1f} s of motion, the clip has {span_s:.1f} s (raise motion.frames)"
+        )
+    return wanted
+
+
+def render_clip(scenario: Scenario, clip: MotionClip, clip_index: int) -> Iterator[LabelledFrame]:
+    """Yield the clip's labelled frames in order."""
+    scene = scenario.scene
+    world = World(clip, build_static_scene(scene.goals, scene.surroundings, scene.net_transmission))
+    rate = scenario.scan.frame_rate_hz
+    start = float(clip.time_s[0])
+    for index in range(frame_count(scenario, clip)):
+        frame_start = start + index / rate
+        rays = frame_rays(scenario.sensors, scenario.scan, index, start)
+        rng = np.random.default_rng(np.random.SeedSequence([scenario.seed, clip_index, index]))
+        scan = render_frame(world, rays, frame_start, scenario.noise, rng)
+        label_time = frame_start + 0.5 / rate
+        times = np.clip(label_time + np.array([-VELOCITY_DT_S, 0.0, VELOCITY_DT_S]), clip.time_s[0], clip.time_s[-1])
+        keypoints, _ = interpolate_clip(clip, times)
+        middle = KEYPOINT_INDEX["middle"]
+        velocity = (keypoints[2][:, middle] - keypoints[0][:, middle]) / (times[2] - times[0])
+        labels = frame_labels(keypoints[1], velocity, clip.track_id, clip.team, clip.role, scan.instance_id)
+        yield LabelledFrame(clip_name(clip_index), index, frame_start, label_time, scan, labels)
