@@ -1,5 +1,5 @@
 # Two commands do everything on a fresh Debian machine (root, no GPU):
-#   make demo   set up, then capture the default scenario
+#   make demo   set up, then generate the default scenario's dataset
 #   make test   set up, then run the whole test suite
 SHELL := /bin/bash
 VENV := .venv
@@ -12,10 +12,9 @@ setup:
 	@bash scripts/setup.sh
 
 demo: setup
-	@mkdir -p $(DEMO_OUT)
 	$(SIMGEN) validate scenarios/default.yaml
-	$(SIMGEN) capture scenarios/default.yaml -o $(DEMO_OUT)/motion.parquet
-	@echo "demo: the motion clip is $(DEMO_OUT)/motion.parquet (read it with simgen.motion_io.read_clip, pandas, polars or duckdb)"
+	$(SIMGEN) generate scenarios/default.yaml -o $(DEMO_OUT) --overwrite
+	@echo "demo: the dataset is in $(DEMO_OUT)/ (its README.md says what is there and how to read it)"
 
 test: setup
 	$(VENV)/bin/python -m pytest -q

@@ -84,7 +84,7 @@ class DatasetConfig(_Strict):
     """What `simgen generate` writes."""
 
     clips: int = Field(1, ge=1, le=100_000, description="Clips: motion sequences of one seed each.")
-    format: Literal["parquet", "kitti", "openpcdet"] = Field("parquet", description="Dataset layout.")
+    format: Literal["parquet", "kitti", "kitti_tracking", "openpcdet"] = Field("parquet", description="Dataset layout.")
 
 
 class Scenario(_Strict):

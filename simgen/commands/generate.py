@@ -1,0 +1,127 @@
+"""`simgen generate`: a scenario -> a labelled dataset (Parquet, KITTI, KITTI tracking or OpenPCDet)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from tqdm import tqdm
+
+from simgen.errors import UserError
+from simgen.scenario import load_scenario, parse_scenario
+
+FORMAT_CHOICES = ("parquet", "kitti", "kitti_tracking", "openpcdet")
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "generate",
+        help="make a labelled LiDAR dataset from a scenario",
+        description="For each clip: play the scenario's match in the football engine, scan it with the "
+        "scenario's LiDARs, label every humanoid, and write the frames. Clips run in parallel on this "
+        "machine's cores (--workers) or as tasks on a Ray cluster (--executor ray); the same scenario "
+        "and seed give byte-identical datasets either way. An interrupted run is finished with --resume.",
+    )
+    parser.add_argument("scenario", type=Path, help="scenario YAML file (see scenarios/)")
+    parser.add_argument("-o", "--output", type=Path, required=True, help="dataset directory to create, e.g. datasets/NAME")
+    parser.add_argument("--format", choices=FORMAT_CHOICES, help="dataset layout (default: the scenario's, else parquet)")
+    parser.add_argument("--density", type=float, help="shots per second as a multiple of the real sensor's (x1, x2, ...)")
+    parser.add_argument("--clips", type=int, help="number of clips (default: the scenario's dataset.clips)")
+    parser.add_argument("--frames", type=int, help="frames per clip (default: the scenario's scan.frames)")
+    parser.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
+    parser.add_argument("--workers", type=int, default=1, help="local worker processes, one clip each at a time (default 1)")
+    parser.add_argument("--executor", choices=("local", "ray"), default="local", help="where clips run (default local)")
+    parser.add_argument("--address", help="Ray cluster address, e.g. 10.0.0.5:6379 (default: start a local Ray)")
+    parser.add_argument("--resume", action="store_true", help="finish an interrupted run, keeping the clips it completed")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing dataset in the output directory")
+    parser.set_defaults(func=run)
+
+
+def _resolve(args):
+    scenario = load_scenario(args.scenario)
+    data = scenario.model_dump()
+    if args.format:
+        data["dataset"]["format"] = args.format
+    if args.clips is not None:
+        data["dataset"]["clips"] = args.clips
+    if args.density is not None:
+        data["scan"]["density"] = args.density
+    if args.frames is not None:
+        data["scan"]["frames"] = args.frames
+        # Capture just enough motion for the frames asked for (plus one sample to interpolate to).
+        needed = args.frames / data["scan"]["frame_rate_hz"] * data["motion"]["capture_hz"] + 2
+        data["motion"]["frames"] = max(data["motion"]["frames"], int(needed))
+    if args.seed is not None:
+        data["seed"] = args.seed
+    return parse_scenario(data, "command line")
+
+
+class _Bars:
+    """A bar per clip in flight, and one for the whole dataset."""
+
+    def __init__(self, clips: int):
+        self.clips = clips
+        self.total: tqdm | None = None  # opened with the first clip, after the output checks
+        self.bars: dict[int, tqdm] = {}
+
+    def __call__(self, event: str, clip_index: int, number: int) -> None:
+        if self.total is None:
+            self.total = tqdm(total=self.clips, unit="clip", desc="dataset", position=0, dynamic_ncols=True)
+        if event == "start":
+            free = min(set(range(1, len(self.bars) + 2)) - {b.pos for b in self.bars.values()})
+            self.bars[clip_index] = tqdm(
+                total=number, unit="frame", desc=f"clip_{clip_index:04d}", position=free, leave=False, dynamic_ncols=True
+            )
+        elif event == "frame" and clip_index in self.bars:
+            self.bars[clip_index].update(number)
+        elif event == "done":
+            bar = self.bars.pop(clip_index, None)
+            if bar:
+                bar.close()
+            self.total.update(1)
+
+    def close(self) -> None:
+        for bar in self.bars.values():
+            bar.close()
+        if self.total is not None:
+            self.total.close()
+
+
+def run(args) -> int:
+    from simgen.generate import generate
+    from simgen.motion import check_level
+    from simgen.rig import sensor_spec
+
+    scenario = _resolve(args)
+    if args.workers < 1 or args.workers > 4 * (os.cpu_count() or 1):
+        raise UserError(f"--workers: {args.workers} is not between 1 and {4 * (os.cpu_count() or 1)}")
+    if args.address and args.executor != "ray":
+        raise UserError("--address is for --executor ray")
+    if args.resume and args.overwrite:
+        raise UserError("--resume and --overwrite contradict each other; choose one")
+    check_level(scenario.motion.level)
+    for sensor in scenario.sensors:
+        sensor_spec(sensor)
+    bars = _Bars(scenario.dataset.clips)
+    try:
+        totals = generate(
+            scenario, args.output, args.workers, args.executor, args.address, args.resume, args.overwrite, bars
+        )
+    finally:
+        bars.close()
+    fmt = scenario.dataset.format
+    rate = totals["frames"] / max(totals["seconds"], 1e-9)
+    lines = [
+        f"dataset   {args.output} ({fmt}, scenario '{scenario.name}', seed {scenario.seed}, density x{scenario.scan.density:g})",
+        f"clips     {totals['clips']} ({totals['resumed_clips']} kept from the interrupted run)",
+        f"frames    {totals['frames']:,}",
+        f"points    {totals['points']:,}",
+        f"boxes     {totals['boxes']:,}",
+        f"files     {totals['files']:,}, {totals['bytes'] / 2**20:,.1f} MiB",
+        f"time      {totals['seconds']:.1f} s ({rate:.1f} frames/s)",
+        f"read it   python -c \"import simgen.datasets as d; print(d.open('{args.output}'))\"",
+    ]
+    if fmt == "parquet":
+        lines.append(f"          duckdb -c \"select count(*) from '{args.output}/points/**/*.parquet'\"")
+    print("\n".join(lines))
+    return 0

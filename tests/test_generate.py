@@ -1,0 +1,127 @@
+"""`simgen generate` end to end: formats agree, executors agree, runs resume, runs lock."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from conftest import ROOT, run_simgen
+import simgen.datasets as datasets
+
+pytestmark = pytest.mark.engine
+SMOKE = ROOT / "scenarios" / "smoke.yaml"
+DUCKDB = shutil.which("duckdb") or str(ROOT / ".venv" / "bin" / "duckdb")
+
+
+def generate(out, *extra):
+    result = run_simgen("generate", SMOKE, "-o", out, "--frames", 6, "--clips", 2, *extra)
+    assert result.returncode == 0, result.stderr[-2000:]
+    return result
+
+
+def manifest_files(path) -> dict:
+    return {f["path"]: f["sha256"] for f in json.loads((path / "manifest.json").read_text())["files"]}
+
+
+@pytest.fixture(scope="module")
+def parquet_dataset(tmp_path_factory):
+    out = tmp_path_factory.mktemp("gen") / "parquet"
+    result = generate(out)
+    return out, result.stdout
+
+
+def test_duckdb_counts_the_points_the_summary_printed(parquet_dataset):
+    out, summary = parquet_dataset
+    printed = int(next(line for line in summary.splitlines() if line.startswith("points")).split()[1].replace(",", ""))
+    query = subprocess.run(
+        [DUCKDB, "-csv", "-noheader", "-c", f"select count(*) from '{out}/points/**/*.parquet'"],
+        capture_output=True, text=True, check=True,
+    )
+    assert int(query.stdout.strip()) == printed > 0
+    assert not (out / ".simgen").exists()
+
+
+@pytest.mark.parametrize("fmt", ["kitti", "kitti_tracking", "openpcdet"])
+def test_other_formats_round_trip_to_the_parquet_frames(parquet_dataset, tmp_path, fmt):
+    reference = datasets.open(parquet_dataset[0])
+    other = datasets.open(generate(tmp_path / fmt, "--format", fmt) and tmp_path / fmt)
+    assert len(other) == len(reference) == 12
+    for clip_a, clip_b in zip(reference.clips, other.clips):
+        for index in range(reference.num_frames(clip_a)):
+            a, b = reference.frame(clip_a, index), other.frame(clip_b, index)
+            np.testing.assert_array_equal(a.points_m, b.points_m)
+            np.testing.assert_array_equal(a.intensity, b.intensity)
+            np.testing.assert_allclose(a.boxes[:, :6], b.boxes[:, :6], rtol=0, atol=1e-6)
+            np.testing.assert_allclose(np.cos(a.boxes[:, 6] - b.boxes[:, 6]), 1.0, atol=1e-6)
+
+
+def test_workers_and_seeds(parquet_dataset, tmp_path):
+    two = tmp_path / "two"
+    generate(two, "--workers", "2")
+    assert manifest_files(two) == manifest_files(parquet_dataset[0])
+    other = tmp_path / "other"
+    generate(other, "--seed", "8")
+    assert manifest_files(other) != manifest_files(parquet_dataset[0])
+
+
+def test_ray_executor_matches_local(parquet_dataset, tmp_path):
+    ray = str(ROOT / ".venv" / "bin" / "ray")
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
+    subprocess.run(
+        [ray, "start", "--head", f"--port={port}", "--node-ip-address=127.0.0.1", "--num-cpus=2", "--include-dashboard=false", "--disable-usage-stats"],
+        check=True, capture_output=True, env=env, timeout=180,
+    )
+    try:
+        out = tmp_path / "ray"
+        generate(out, "--executor", "ray", "--address", f"127.0.0.1:{port}")
+    finally:
+        subprocess.run([ray, "stop", "--force"], capture_output=True, env=env, timeout=120)
+    assert manifest_files(out) == manifest_files(parquet_dataset[0])
+
+
+def test_killed_run_resumes_to_the_same_manifest(parquet_dataset, tmp_path):
+    out = tmp_path / "killed"
+    command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), "--frames", "6", "--clips", "2"]
+    process = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 300
+    while not list((out / ".simgen" / "clips").glob("*.json")) and time.time() < deadline:
+        time.sleep(0.05)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    assert not (out / "manifest.json").exists()
+    assert not [p for p in out.rglob("*") if ".tmp-" in p.name]
+    again = run_simgen("generate", SMOKE, "-o", out, "--frames", 6, "--clips", 2)
+    assert again.returncode == 2 and "--resume" in again.stderr
+    resumed = generate(out, "--resume")
+    assert "1 kept from the interrupted run" in resumed.stdout
+    assert manifest_files(out) == manifest_files(parquet_dataset[0])
+
+
+def test_a_second_run_into_the_same_directory_is_refused(tmp_path):
+    out = tmp_path / "locked"
+    command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), "--frames", "6", "--clips", "6"]
+    first = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.time() + 60
+        while not (out / ".simgen" / "lock").exists() and time.time() < deadline:
+            time.sleep(0.02)
+        time.sleep(0.2)
+        second = run_simgen("generate", SMOKE, "-o", out, "--frames", 6, "--clips", 6, "--resume")
+        assert first.poll() is None, "the first run ended before the second tried"
+        assert second.returncode == 2
+        assert second.stderr.count("\n") == 1 and "another simgen generate is writing here" in second.stderr
+    finally:
+        first.wait(timeout=300)
+    assert first.returncode == 0 and (out / "manifest.json").exists()
