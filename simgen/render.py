@@ -20,6 +20,8 @@ from simgen.pitch import ground_hit, on_line
 from simgen.raycast import PartCaster, StaticCaster, argmin_per_group, sphere_hit
 from simgen.scene import (
     BALL,
+    GOAL,
+    SURROUNDINGS,
     BALL_RADIUS_M,
     BALL_REFLECTIVITY,
     GRASS_REFLECTIVITY,
@@ -93,6 +95,17 @@ class World:
         self.parts = PartCaster([(local[h], faces) for local, faces, _ in templates for h in range(clip.num_humanoids)])
         self.face_reflectivity = np.concatenate([REFLECTIVITY[materials].reshape(-1) for _, _, materials in templates])
         self.semantic = np.where(clip.team == "official", OFFICIAL, PLAYER).astype(np.uint8)
+        # Goals are small seen from a sensor: only rays through their bounding spheres are cast at
+        # them. Boards and a stand surround the sensor: with them, every ray is cast.
+        self.cast_all_static = bool((scene.semantic == SURROUNDINGS).any())
+        spheres = []
+        for side in (-1.0, 1.0):
+            faces = scene.faces[(scene.semantic == GOAL) & (np.sign(scene.vertices[scene.faces[:, 0], 0]) == side)]
+            if len(faces):
+                vertices = scene.vertices[faces.reshape(-1)].astype(np.float64)
+                centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2
+                spheres.append((*centre, np.linalg.norm(vertices - centre, axis=1).max() + 1e-3))
+        self.static_spheres = np.array(spheres, dtype=np.float64).reshape(-1, 4)
 
 
 def expand_subrays(rays: Rays, noise: NoiseConfig) -> tuple[Rays, NDArray[np.int64]]:
@@ -122,16 +135,15 @@ def _ranges(starts: NDArray[np.int64], stops: NDArray[np.int64]) -> tuple[NDArra
     return starts[which] + offsets, which
 
 
-def _body_candidates(origins, directions, sensor, centres, radius, num_slices, slice_of_ray, t_max) -> tuple[NDArray, NDArray]:
-    """(ray, instance) pairs whose ray passes through the instance's bounding sphere before t_max.
+def sphere_candidates(origins, directions, sensor, centres, radius, slice_of_ray, t_max) -> tuple[NDArray, NDArray]:
+    """(ray, sphere) pairs whose ray passes through the sphere before t_max[ray].
 
-    centres (S*H, 3), radius (S*H,) per posed body; instance = slice * H + humanoid. Rays are sorted
-    by (origin, slice, azimuth), and each body looks up only the rays of its azimuth interval as
-    seen from each origin (one per sensor), so the cost grows with the rays, not rays x bodies.
+    centres (S, M, 3) and radius (S, M): M spheres per time slice; a ray of slice s meets only the
+    spheres of slice s; sphere = s * M + m. Rays are sorted by (origin, slice, azimuth), and each
+    sphere looks up only the rays of its azimuth interval as seen from each origin (one per
+    sensor), so the cost grows with the rays, not rays x spheres.
     """
-    num_humanoids = len(centres) // num_slices
-    centres = centres.reshape(num_slices, num_humanoids, 3)
-    radius = radius.reshape(num_slices, num_humanoids)
+    num_slices, num_humanoids = radius.shape
     sensors, first = np.unique(sensor, return_index=True)
     unique_origins = origins[first]
     group = np.searchsorted(sensors, sensor) * num_slices + slice_of_ray
@@ -139,7 +151,7 @@ def _body_candidates(origins, directions, sensor, centres, radius, num_slices, s
     width = 2 * np.pi + 1.0
     order = np.argsort(group * width + azimuth)
     sorted_key = (group * width + azimuth)[order]
-    # One query per (origin, slice, humanoid).
+    # One query per (origin, slice, sphere).
     to_centre = centres[None] - unique_origins[:, None, None]  # (O, S, H, 3)
     distance_xy = np.hypot(to_centre[..., 0], to_centre[..., 1])
     centre_azimuth = np.arctan2(to_centre[..., 1], to_centre[..., 0]) + np.pi
@@ -158,7 +170,7 @@ def _body_candidates(origins, directions, sensor, centres, radius, num_slices, s
         rays_out.append(order[position])
         instances_out.append(instance.reshape(-1)[valid][which])
     ray, inst = np.concatenate(rays_out), np.concatenate(instances_out)
-    # Exact test against the body sphere, in front of the nearest hit so far.
+    # Exact test against the sphere, in front of the nearest hit so far.
     to_centre = centres.reshape(-1, 3)[inst] - origins[ray]
     t_mid = np.einsum("ki,ki->k", to_centre, directions[ray])
     miss2 = np.einsum("ki,ki->k", to_centre, to_centre) - t_mid**2
@@ -182,9 +194,38 @@ def cast(world: World, rays: Rays, frame_start_s: float, rng: np.random.Generato
     reflectivity = np.full(n, GRASS_REFLECTIVITY)
     cos_incidence = np.abs(d[:, 2])  # the ground's normal is +z
 
+    # Poses at each ray's time slice, and the bounding spheres of everything but the ground:
+    # per slice, the H bodies, the ball, then the static objects.
+    slice_of_ray = np.floor((rays.time_s - frame_start_s) / SLICE_S).astype(np.int64)
+    slice_of_ray -= slice_of_ray.min(initial=0)
+    num_slices = int(slice_of_ray.max(initial=-1)) + 1
+    slice_times = np.clip(frame_start_s + (np.arange(num_slices) + 0.5) * SLICE_S, world.clip.time_s[0], world.clip.time_s[-1])
+    keypoints, ball = interpolate_clip(world.clip, slice_times)
+    num_humanoids = world.clip.num_humanoids
+    rotation, origin = part_frames(keypoints.reshape(-1, 12, 3))  # (S*H, P, ...)
+    parts = world.num_parts
+    templates = np.arange(parts)[None] * num_humanoids + (np.arange(len(origin)) % num_humanoids)[:, None]
+    part_centres = np.einsum("ipjk,ipk->ipj", rotation, world.parts.centre[templates]) + origin
+    body_centres = keypoints[:, :, KEYPOINT_INDEX["middle"]].reshape(-1, 3)
+    reach = np.linalg.norm(part_centres - body_centres[:, None], axis=2) + world.parts.radius[templates]
+    statics = world.static_spheres
+    centres = np.concatenate(
+        [body_centres.reshape(num_slices, num_humanoids, 3), ball[:, None], np.broadcast_to(statics[:, :3], (num_slices, len(statics), 3))],
+        axis=1,
+    )
+    radius = np.concatenate(
+        [reach.max(axis=1).reshape(num_slices, num_humanoids), np.full((num_slices, 1), BALL_RADIUS_M), np.broadcast_to(statics[:, 3], (num_slices, len(statics)))],
+        axis=1,
+    )
+    ray, sphere = sphere_candidates(o, d, rays.sensor, centres, radius, slice_of_ray, t)
+    kind = sphere % centres.shape[1]
+
     # Static meshes; a net lets a ray through with its transmission probability.
     start = np.zeros(n)
-    pending = np.arange(n) if world.static.num_faces else np.zeros(0, np.int64)
+    if world.static.num_faces == 0:
+        pending = np.zeros(0, np.int64)
+    else:
+        pending = np.arange(n) if world.cast_all_static else np.unique(ray[kind > num_humanoids])
     for _ in range(MAX_NET_PASSES):
         if len(pending) == 0:
             break
@@ -204,44 +245,32 @@ def cast(world: World, rays: Rays, frame_start_s: float, rng: np.random.Generato
         pending = pending[through]
 
     # Painted lines on the ground.
-    on_ground = (semantic == GROUND) & np.isfinite(t)
+    on_ground = np.nonzero((semantic == GROUND) & np.isfinite(t))[0]
     ground_xy = o[on_ground, :2] + t[on_ground, None] * d[on_ground, :2]
-    lines = on_line(ground_xy[:, 0], ground_xy[:, 1])
-    idx = np.nonzero(on_ground)[0][lines]
+    idx = on_ground[on_line(ground_xy[:, 0], ground_xy[:, 1])]
     semantic[idx] = LINE
     reflectivity[idx] = LINE_REFLECTIVITY
 
-    # Humanoids and the ball, posed at each ray's time slice.
-    slice_of_ray = np.floor((rays.time_s - frame_start_s) / SLICE_S).astype(np.int64)
-    slice_of_ray -= slice_of_ray.min(initial=0)
-    num_slices = int(slice_of_ray.max(initial=-1)) + 1
-    slice_times = frame_start_s + (np.arange(num_slices) + 0.5) * SLICE_S
-    slice_times = np.clip(slice_times, world.clip.time_s[0], world.clip.time_s[-1])
-    keypoints, ball = interpolate_clip(world.clip, slice_times)
-    num_humanoids = world.clip.num_humanoids
-    ball_t = sphere_hit(o, d, ball[slice_of_ray], BALL_RADIUS_M)
-    hit_ball = ball_t < t
-    t[hit_ball] = ball_t[hit_ball]
-    semantic[hit_ball] = BALL
-    instance[hit_ball] = BALL_INSTANCE_ID
-    reflectivity[hit_ball] = BALL_REFLECTIVITY
-    outward = o[hit_ball] + ball_t[hit_ball, None] * d[hit_ball] - ball[slice_of_ray[hit_ball]]
-    cos_incidence[hit_ball] = _cos_incidence(outward, d[hit_ball])
+    # The ball.
+    pair = kind == num_humanoids
+    ball_ray = ray[pair]
+    ball_centre = ball[slice_of_ray[ball_ray]]
+    ball_t = sphere_hit(o[ball_ray], d[ball_ray], ball_centre, BALL_RADIUS_M)
+    hit = ball_t < t[ball_ray]
+    idx = ball_ray[hit]
+    t[idx] = ball_t[hit]
+    semantic[idx] = BALL
+    instance[idx] = BALL_INSTANCE_ID
+    reflectivity[idx] = BALL_REFLECTIVITY
+    cos_incidence[idx] = _cos_incidence(o[idx] + ball_t[hit, None] * d[idx] - ball_centre[hit], d[idx])
 
-    # Each posed body's bounding sphere: round `middle`, holding every part's sphere.
-    rotation, origin = part_frames(keypoints.reshape(-1, 12, 3))  # (S*H, P, ...)
-    parts = world.num_parts
-    templates = np.arange(parts)[None] * num_humanoids + (np.arange(len(origin)) % num_humanoids)[:, None]
-    part_centres = np.einsum("ipjk,ipk->ipj", rotation, world.parts.centre[templates]) + origin
-    centres = keypoints[:, :, KEYPOINT_INDEX["middle"]].reshape(-1, 3)
-    reach = np.linalg.norm(part_centres - centres[:, None], axis=2) + world.parts.radius[templates]
-    ray, instance_of_pair = _body_candidates(o, d, rays.sensor, centres, reach.max(axis=1), num_slices, slice_of_ray, t)
-    if len(ray):
-        ray = np.repeat(ray, parts)
-        posed = np.repeat(instance_of_pair, parts)
-        part = np.tile(np.arange(parts), len(instance_of_pair))
+    # The humanoids: each candidate ray is cast at every part of the posed body.
+    pair = kind < num_humanoids
+    if pair.any():
+        posed = np.repeat(sphere[pair] // centres.shape[1] * num_humanoids + kind[pair], parts)
+        part = np.tile(np.arange(parts), pair.sum())
         humanoid = posed % num_humanoids
-        hits = world.parts.cast(o, d, ray, part * num_humanoids + humanoid, rotation[posed, part], origin[posed, part], t)
+        hits = world.parts.cast(o, d, np.repeat(ray[pair], parts), part * num_humanoids + humanoid, rotation[posed, part], origin[posed, part], t)
         best = argmin_per_group(n, hits.ray, hits.t_m)
         got = np.nonzero(best >= 0)[0]
         k = best[got]
