@@ -58,7 +58,7 @@ def _bare(scenario, clip, frames: int) -> tuple[float, int]:
         scene.add_triangles(o3d.core.Tensor(static.vertices), o3d.core.Tensor(static.faces.astype(np.uint32)))
         for vertices in bodies.vertices_m:
             scene.add_triangles(o3d.core.Tensor(vertices), o3d.core.Tensor(bodies.faces.astype(np.uint32)))
-        rays = frame_rays(scenario.sensors, scenario.scan, index, float(clip.time_s[0]))
+        rays = frame_rays(scenario, scenario.sensor_specs(), index, float(clip.time_s[0]))
         tensor = o3d.core.Tensor(np.concatenate([rays.origin_m, rays.direction], axis=1).astype(np.float32))
         scene.cast_rays(tensor, nthreads=1)  # builds the BVH: not timed
         started = time.perf_counter()

@@ -54,7 +54,7 @@ def run_clip(job: ClipJob, progress: Progress | None = None) -> dict:
         frames.append(frame)
         notify("frame", job.clip_index, 1)
     root = Path(job.root)
-    sensors = sensor_infos(scenario.sensors, scenario.scan)
+    sensors = sensor_infos(scenario)
     record = write_clip(root, scenario.dataset.format, frames, sensors, job.clip_index).to_dict()
     with atomic_path(root / WORK_DIR / "clips" / f"{job.clip_index:04d}.json") as tmp:
         tmp.write_text(json.dumps(record, sort_keys=True))
@@ -189,7 +189,7 @@ def finish(root: Path, scenario: Scenario, records: list[dict]):
         root,
         scenario.dataset.format,
         [ClipRecord.from_dict(r) for r in sorted(records, key=lambda r: r["clip_index"])],
-        sensor_infos(scenario.sensors, scenario.scan),
+        sensor_infos(scenario),
         scenario.model_dump(mode="json"),
         scenario.seed,
     )

@@ -55,9 +55,10 @@ def render_clip(scenario: Scenario, clip: MotionClip, clip_index: int) -> Iterat
     world = World(clip, build_static_scene(scene.goals, scene.surroundings, scene.net_transmission))
     rate = scenario.scan.frame_rate_hz
     start = float(clip.time_s[0])
+    specs = scenario.sensor_specs()
     for index in range(frame_count(scenario, clip)):
         frame_start = start + index / rate
-        rays = frame_rays(scenario.sensors, scenario.scan, index, start)
+        rays = frame_rays(scenario, specs, index, start)
         rng = np.random.default_rng(np.random.SeedSequence([scenario.seed, clip_index, index]))
         scan = render_frame(world, rays, frame_start, scenario.noise, rng)
         label_time = frame_start + 0.5 / rate

@@ -11,10 +11,9 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 import scan_patterns
-from simgen.errors import UserError
 from simgen.frames import SensorInfo
 from simgen.render import Rays
-from simgen.scenario import ScanConfig, SensorConfig, SensorPose
+from simgen.scenario import Scenario, SensorPose
 
 
 def sensor_rotation(pose: SensorPose) -> NDArray[np.float64]:
@@ -22,19 +21,10 @@ def sensor_rotation(pose: SensorPose) -> NDArray[np.float64]:
     return Rotation.from_euler("ZYX", [pose.yaw, -pose.pitch, pose.roll], degrees=True).as_matrix()
 
 
-def sensor_spec(sensor: SensorConfig) -> scan_patterns.SensorSpec:
-    try:
-        return scan_patterns.get_sensor(sensor.preset)
-    except KeyError:
-        names = ", ".join(scan_patterns.sensor_names())
-        raise UserError(f"sensors.{sensor.name}.preset: unknown sensor preset '{sensor.preset}' (known: {names})") from None
-
-
-def sensor_infos(sensors: list[SensorConfig], scan: ScanConfig) -> list[SensorInfo]:
+def sensor_infos(scenario: Scenario) -> list[SensorInfo]:
     """What the dataset's `sensors` table records of each sensor."""
     infos = []
-    for i, sensor in enumerate(sensors):
-        spec = sensor_spec(sensor)
+    for i, (sensor, spec) in enumerate(zip(scenario.sensors, scenario.sensor_specs())):
         p = sensor.pose
         infos.append(
             SensorInfo(
@@ -43,22 +33,21 @@ def sensor_infos(sensors: list[SensorConfig], scan: ScanConfig) -> list[SensorIn
                 preset=sensor.preset,
                 pose=(p.x, p.y, p.z, p.roll, p.pitch, p.yaw),
                 heads=len(spec.heads),
-                shots_per_s=sum(h.shots_per_s for h in spec.heads) * scan.density,
-                frame_rate_hz=scan.frame_rate_hz,
-                sweeps_per_frame=scan.sweeps_per_frame,
-                density=scan.density,
+                shots_per_s=spec.shots_per_s * scenario.scan.density,
+                frame_rate_hz=scenario.scan.frame_rate_hz,
+                sweeps_per_frame=scenario.scan.sweeps_per_frame,
+                density=scenario.scan.density,
             )
         )
     return infos
 
 
-def frame_rays(sensors: list[SensorConfig], scan: ScanConfig, frame_index: int, clip_start_s: float) -> Rays:
-    """The rays of every sensor's shots in frame `frame_index`, in the pitch frame."""
+def frame_rays(scenario: Scenario, specs: list[scan_patterns.SensorSpec], frame_index: int, clip_start_s: float) -> Rays:
+    """The rays of every sensor's shots in frame `frame_index`, in the pitch frame (specs: `Scenario.sensor_specs()`)."""
     parts = []
-    for i, sensor in enumerate(sensors):
-        shots = scan_patterns.frame_shots(
-            sensor_spec(sensor), frame_index, scan.frame_rate_hz, scan.density, scan.sweeps_per_frame
-        )
+    scan = scenario.scan
+    for i, (sensor, spec) in enumerate(zip(scenario.sensors, specs)):
+        shots = scan_patterns.frame_shots(spec, frame_index, scan.frame_rate_hz, scan.density, scan.sweeps_per_frame)
         rotation = sensor_rotation(sensor.pose)
         n = len(shots.t_s)
         directions = shots.dirs.astype(np.float64) @ rotation.T

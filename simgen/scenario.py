@@ -11,7 +11,9 @@ from pathlib import Path
 from typing import Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+import scan_patterns
 
 from simgen.errors import UserError
 from simgen.noise import NoiseConfig
@@ -64,7 +66,7 @@ class SensorPose(_Strict):
 
 
 class SensorConfig(_Strict):
-    """One LiDAR: a scan-pattern preset (see `simgen pattern --help`) at a pose."""
+    """One LiDAR: a scan-pattern preset (see `simgen pattern --help`, or `custom_sensors`) at a pose."""
 
     name: str = Field("mid100", pattern=r"^[A-Za-z0-9_.-]+$")
     preset: str = Field("mid100-risley", description="Sensor preset of scan_patterns.")
@@ -95,10 +97,36 @@ class Scenario(_Strict):
     seed: int = Field(0, ge=0, lt=2**31, description="Seed of every random choice (engine included).")
     motion: MotionConfig = MotionConfig()
     scene: SceneConfig = SceneConfig()
+    custom_sensors: list[dict] = Field(
+        default_factory=list,
+        max_length=64,
+        description="Sensor presets of this scenario: {name, description, heads: [{like: PRESET | pattern: risley|rose|replay, "
+        "params, shots_per_s, fov_deg, yaw_deg, pitch_deg, time_offset_s}]} (scan_patterns.make_sensor).",
+    )
     sensors: list[SensorConfig] = Field(default_factory=lambda: [SensorConfig()], min_length=1, max_length=16)
     scan: ScanConfig = ScanConfig()
     noise: NoiseConfig = NoiseConfig()
     dataset: DatasetConfig = DatasetConfig()
+
+    @field_validator("custom_sensors")
+    @classmethod
+    def _custom_sensors_are_sensors(cls, specs: list[dict]) -> list[dict]:
+        for spec in specs:
+            scan_patterns.make_sensor(spec)  # raises ValueError naming the problem
+        return specs
+
+    def sensor_specs(self) -> list[scan_patterns.SensorSpec]:
+        """The scan-pattern sensor of each entry of `sensors`: a custom one, else a registered preset."""
+        custom = {spec.name: spec for spec in map(scan_patterns.make_sensor, self.custom_sensors)}
+        return [custom[s.preset] if s.preset in custom else scan_patterns.get_sensor(s.preset) for s in self.sensors]
+
+    @model_validator(mode="after")
+    def _presets_exist(self) -> "Scenario":
+        known = set(scan_patterns.sensor_names()) | {spec["name"] for spec in self.custom_sensors}
+        for i, sensor in enumerate(self.sensors):
+            if sensor.preset not in known:
+                raise ValueError(f"sensors.{i}.preset: unknown sensor preset '{sensor.preset}' (known: {', '.join(sorted(known))})")
+        return self
 
     @model_validator(mode="after")
     def _motion_covers_the_frames(self) -> "Scenario":
@@ -120,6 +148,8 @@ def _one_line(error: ValidationError) -> str:
     if not first["loc"]:  # a check across sections: its message names the fields
         return first["msg"].removeprefix("Value error, ")
     field = _field_path(first["loc"])
+    if first["type"] == "value_error":
+        return f"'{field}': {first['msg'].removeprefix('Value error, ')}"
     if first["type"] == "extra_forbidden":
         return f"unknown key '{field}'"
     if first["type"] == "missing":

@@ -36,6 +36,9 @@ def test_shipped_scenarios_are_valid(path):
         ({"name": "x", "noise": {"range_sigma_m": -0.1}}, "'noise.range_sigma_m'"),
         ({"name": "x", "sensors": [{"pose": {"pitch": 120}}]}, "'sensors.0.pose.pitch'"),
         ({"name": "x", "dataset": {"format": "las"}}, "'dataset.format'"),
+        ({"name": "x", "sensors": [{"preset": "mid999"}]}, "sensors.0.preset: unknown sensor preset 'mid999'"),
+        ({"name": "x", "custom_sensors": [{"name": "w", "heads": [{"like": "mid40-rose", "fov_deg": 200}]}]}, "fov_deg must be in (0, 180)"),
+        ({"name": "x", "custom_sensors": [{"name": "w", "heads": [{"pattern": "spiral"}]}]}, "unknown pattern 'spiral'"),
         (["a", "list"], "expected a mapping"),
     ],
 )
@@ -66,6 +69,19 @@ def test_validate_cli_typo_negative_frames_and_missing_file(tmp_path):
         lines = result.stderr.strip().splitlines()
         assert len(lines) == 1 and expected in lines[0], result.stderr
         assert "Traceback" not in result.stderr and result.stdout == ""
+
+
+def test_custom_sensor_from_the_scenario():
+    scenario = parse_scenario(
+        {
+            "name": "x",
+            "custom_sensors": [{"name": "wide", "heads": [{"like": "mid40-rose", "fov_deg": 90, "shots_per_s": 50000}]}],
+            "sensors": [{"preset": "wide"}, {"preset": "mid40-risley", "name": "second"}],
+        }
+    )
+    wide, mid40 = scenario.sensor_specs()
+    assert wide.heads[0].fov_deg == 90 and wide.heads[0].shots_per_s == 50000
+    assert mid40.name == "mid40-risley"
 
 
 def test_malformed_yaml_is_one_line(tmp_path):

@@ -90,7 +90,6 @@ class _Bars:
 def run(args) -> int:
     from simgen.generate import generate
     from simgen.motion import check_level
-    from simgen.rig import sensor_spec
 
     scenario = _resolve(args)
     if args.workers < 1 or args.workers > 4 * (os.cpu_count() or 1):
@@ -100,8 +99,6 @@ def run(args) -> int:
     if args.resume and args.overwrite:
         raise UserError("--resume and --overwrite contradict each other; choose one")
     check_level(scenario.motion.level)
-    for sensor in scenario.sensors:
-        sensor_spec(sensor)
     bars = _Bars(scenario.dataset.clips)
     try:
         totals = generate(
