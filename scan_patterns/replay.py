@@ -24,6 +24,9 @@ from scan_patterns.shots import Shots, dirs_from_livox, make_shots
 OFFICIAL_FILES = {"mid40": "mid40_official_4s.npz", "mid70": "mid70_official_4s.npz"}
 
 
+_EPS = 1e-6  # positions within this many shots of a file shot are that shot
+
+
 class PatternLoopWarning(UserWarning):
     """A replayed pattern file ran out and started again: the pattern repeats and jumps at the seam."""
 
@@ -43,6 +46,11 @@ class PatternFile:
     @property
     def duration_s(self) -> float:
         return len(self.t_s) * self.dt_s
+
+    @functools.cached_property
+    def columns32(self) -> NDArray[np.float32]:
+        """(3, N) float32 copy of `dirs`, one row per axis: fast to gather from."""
+        return np.ascontiguousarray(self.dirs.T, np.float32)
 
 
 def livox_dir() -> Path:
@@ -98,18 +106,27 @@ def directions(source: str, t_s: NDArray[np.float64]) -> NDArray[np.float32]:
     """(N, 3) float32 head-frame directions of the file replayed at times `t_s`, looping with a warning."""
     pattern = load_pattern_file(source)
     n = len(pattern.t_s)
-    u = (np.asarray(t_s, np.float64) - pattern.t_s[0]) / pattern.dt_s
-    u = np.where(np.abs(u - np.rint(u)) < 1e-6, np.rint(u), u)  # exact file shots stay exact
-    if len(u) and (u.min() < 0 or u.max() > n - 1):
+    u = (np.asarray(t_s, np.float64) - pattern.t_s[0]) / pattern.dt_s  # position in the file, in shots
+    if len(u) and (u.min() < -_EPS or u.max() > n - 1 + _EPS):
         warnings.warn(
-            f"replay of {pattern.name} loops past the file's end ({pattern.duration_s:g} s) in "
-            f"({t_s[0]:g}, {t_s[-1]:g}] s: the pattern repeats and jumps at the seam",
+            f"replay of {pattern.name} loops past the file's end ({pattern.duration_s:g} s) at pattern "
+            f"times ({t_s[0]:g}, {t_s[-1]:g}] s: the pattern repeats and jumps at the seam",
             PatternLoopWarning,
-            stacklevel=3,
+            stacklevel=4,
         )
-    u = np.mod(u, n)
-    i = np.floor(u).astype(np.intp)
-    frac = (u - i)[:, None]
-    d = pattern.dirs[i] * (1.0 - frac) + pattern.dirs[(i + 1) % n] * frac
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    return d.astype(np.float32)
+    whole = np.floor(u + _EPS)  # a file shot's own time gives exactly that shot
+    frac = np.maximum(u - whole, 0.0).astype(np.float32)
+    whole -= n * np.floor(whole / n)
+    i = whole.astype(np.intp)
+    out = np.empty((len(i), 3), np.float32)
+    if not frac.any():  # on the file's own clock: its shots, as they are
+        for axis, column in enumerate(pattern.columns32):
+            out[:, axis] = np.take(column, i)
+        return out
+    j = i + 1
+    j[j == n] = 0
+    for axis, column in enumerate(pattern.columns32):
+        a = np.take(column, i)
+        out[:, axis] = a + (np.take(column, j) - a) * frac
+    out /= np.linalg.norm(out, axis=1, keepdims=True)  # chords between shots, the seam's too, back to unit
+    return out
