@@ -17,6 +17,7 @@ from simgen.errors import UserError
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path in the target's directory; rename it to `path` on success."""
     path = Path(path)
+    check_output_allowed(path)
     if path.is_dir():
         raise UserError(f"{path}: is a directory, expected a file name")
     if not path.parent.is_dir():
@@ -29,3 +30,21 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+OUTPUT_ROOTS_ENV = "SIMGEN_OUTPUT_ROOTS"
+
+
+def check_output_allowed(path: str | Path) -> None:
+    """Refuse outputs outside the directories listed in $SIMGEN_OUTPUT_ROOTS (colon-separated), if set.
+
+    Dataset builders on shared machines set it to the shared data roots, so that a mistyped -o
+    never writes into a home or system directory.
+    """
+    roots = [Path(r).resolve() for r in os.environ.get(OUTPUT_ROOTS_ENV, "").split(":") if r]
+    if not roots:
+        return
+    target = Path(path).resolve()
+    if not any(target == root or root in target.parents for root in roots):
+        allowed = ", ".join(map(str, roots))
+        raise UserError(f"{path}: outside the allowed output roots ({OUTPUT_ROOTS_ENV}={allowed})")

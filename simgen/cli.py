@@ -43,7 +43,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except UserError as error:
-        print(f"simgen {args.command}: error: {error}", file=sys.stderr)
+        print(f"simgen {args.command}: error: {' '.join(str(error).splitlines())}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"simgen {args.command}: interrupted", file=sys.stderr)

@@ -21,7 +21,7 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Callable
 
-from simgen.atomic import atomic_path
+from simgen.atomic import atomic_path, check_output_allowed
 from simgen.errors import UserError
 from simgen.scenario import Scenario
 
@@ -106,6 +106,8 @@ def prepare_output(root: Path, scenario: Scenario, resume: bool, overwrite: bool
             raise UserError(f"{root}: holds files but no interrupted simgen generate run to resume")
         if state.read_text() != resolved:
             raise UserError(f"{root}: was started with another scenario or options; resume with the same ones, or --overwrite")
+        for leftover in root.rglob("*.tmp-*"):  # files an interrupted writer never renamed
+            leftover.unlink()
     elif occupied and not overwrite:
         raise UserError(f"{root}: already exists; use --resume to finish an interrupted run or --overwrite to replace it")
     (root / WORK_DIR / "clips").mkdir(parents=True, exist_ok=True)
@@ -211,12 +213,21 @@ def generate(
     """Make the whole dataset; returns totals for the summary."""
     started = time.perf_counter()
     root = Path(root)
+    check_output_allowed(root)
     if root.exists() and not root.is_dir():
         raise UserError(f"{root}: exists and is not a directory")
+    created_root, created_work = not root.exists(), not (root / WORK_DIR).exists()
     root.mkdir(parents=True, exist_ok=True)
     lock = OutputLock(root)
     try:
-        prepare_output(root, scenario, resume, overwrite)
+        try:
+            prepare_output(root, scenario, resume, overwrite)
+        except UserError:  # refused: leave the directory as it was
+            if created_work:
+                shutil.rmtree(root / WORK_DIR)
+            if created_root:
+                shutil.rmtree(root)
+            raise
         done = done_clips(root) if resume else {}
         payload = scenario.model_dump(mode="json")
         jobs = [ClipJob(payload, i, str(root)) for i in range(scenario.dataset.clips) if i not in done]

@@ -140,7 +140,8 @@ class Scenario(_Strict):
 
 
 def _field_path(location: tuple) -> str:
-    return ".".join(str(part) for part in location) or "(top level)"
+    """Dotted path of a field; control characters in user-given keys are escaped to keep one line."""
+    return ".".join(str(part).encode("unicode_escape").decode("ascii") for part in location) or "(top level)"
 
 
 def _one_line(error: ValidationError) -> str:
@@ -154,8 +155,8 @@ def _one_line(error: ValidationError) -> str:
         return f"unknown key '{field}'"
     if first["type"] == "missing":
         return f"missing key '{field}'"
-    value = first.get("input")
-    return f"'{field}': {first['msg']} (got {value!r})"
+    value = repr(first.get("input"))
+    return f"'{field}': {first['msg']} (got {value[:60]}{'...' if len(value) > 60 else ''})"
 
 
 def parse_scenario(data: object, source: str = "scenario") -> Scenario:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from simgen.atomic import check_output_allowed
 from simgen.errors import UserError
 from simgen.scenario import load_scenario
 
@@ -41,6 +42,7 @@ def run(args) -> int:
         overrides["seed"] = args.seed
     if overrides:
         scenario = parse_scenario({**scenario.model_dump(), **overrides}, "command line")
+    check_output_allowed(args.output)  # before the engine runs, not after
     if args.output.suffix != ".parquet":
         raise UserError(f"{args.output}: a motion clip is a .parquet file")
     if not args.output.parent.is_dir():
