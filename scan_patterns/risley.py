@@ -9,7 +9,7 @@ phase. Identical prisms at the same angle make a parallel plate (the beam leaves
 boresight); at opposite angles their deviations add up to the edge of the field of view.
 
 `MID40` holds the parameters fitted to Livox's official Mid-40 file by `scan_patterns.fit_risley`
-(max per-shot error 1.1e-5 deg with `directions_exact`, 2.9e-5 deg with the float32 `directions`).
+(max per-shot error 1.1e-5 deg with `directions_exact`, 2.5e-5 deg with the float32 `directions`).
 Both prisms come out as the same glass and wedge, and the rates as whole rpm; with 4664 and
 -7294 rpm (gcd 2 rpm) the pattern repeats only every 30 s.
 """
