@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from shapely import affinity
 
-from train.geometry import bev_corners, bev_iou, diou_3d, iou_3d, iou_3d_pairs
+from train.geometry import bev_corners, bev_iou, diou_3d, diou_3d_pairs, iou_3d, iou_3d_pairs
 
 ATOL = 1e-9
 
@@ -121,8 +121,10 @@ def test_pairs_are_the_diagonal_of_the_matrix():
     rng = np.random.default_rng(3)
     a, b = grid_boxes(rng, 40), grid_boxes(rng, 40)
     np.testing.assert_array_equal(iou_3d_pairs(a, b), np.diag(iou_3d(a, b)))
-    with pytest.raises(ValueError):
-        iou_3d_pairs(a, b[:3])
+    np.testing.assert_array_equal(diou_3d_pairs(a, b), np.diag(diou_3d(a, b)))
+    for pairs in (iou_3d_pairs, diou_3d_pairs):
+        with pytest.raises(ValueError):
+            pairs(a, b[:3])
 
 
 def test_identical_boxes_give_one():

@@ -165,34 +165,45 @@ def iou_3d_pairs(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
 
 
 def _corner_spread_xy(a: Boxes, b: Boxes) -> NDArray[np.float64]:
-    """(P, Q) largest squared BEV distance in m^2 from a corner of a (P, 7) to one of b (Q, 7).
+    """Largest squared BEV distance in m^2 from a corner of a to one of b, broadcastable (..., 7).
 
     With d the centre offset, corners of a at its centre + s e_i and of b at its centre + u f_j
     (s, u = +-1; e_i, f_j for i, j = 0, 1 the half-diagonals to corners 0 and 1), the largest
     |d + s e_i - u f_j|^2 over the signs is |e|^2 + |f|^2 + |d|^2 + 2 max(|x - y| - z, |x + y| + z)
     where x = d.e_i, y = d.f_j and z = e_i.f_j.
     """
-    e = _rotate(_half_corners(a)[:, :2], a[:, 6])  # (P, 2, 2)
-    f = _rotate(_half_corners(b)[:, :2], b[:, 6])  # (Q, 2, 2)
-    dx, dy = a[:, None, 0] - b[None, :, 0], a[:, None, 1] - b[None, :, 1]
-    ys = [dx * f[None, :, j, 0] + dy * f[None, :, j, 1] for j in range(2)]
+    e = _rotate(_half_corners(a)[..., :2, :], a[..., 6])  # (..., 2, 2)
+    f = _rotate(_half_corners(b)[..., :2, :], b[..., 6])
+    dx, dy = a[..., 0] - b[..., 0], a[..., 1] - b[..., 1]
+    ys = [dx * f[..., j, 0] + dy * f[..., j, 1] for j in range(2)]
     best = np.full(dx.shape, -np.inf)
     for i in range(2):
-        x = dx * e[:, None, i, 0] + dy * e[:, None, i, 1]
+        x = dx * e[..., i, 0] + dy * e[..., i, 1]
         for j, y in enumerate(ys):
-            z = e[:, None, i, 0] * f[None, :, j, 0] + e[:, None, i, 1] * f[None, :, j, 1]
+            z = e[..., i, 0] * f[..., j, 0] + e[..., i, 1] * f[..., j, 1]
             best = np.maximum(best, np.maximum(np.abs(x - y) - z, np.abs(x + y) + z))
-    radii = np.sum(e[:, 0] ** 2, axis=1)[:, None] + np.sum(f[:, 0] ** 2, axis=1)[None]
+    radii = np.sum(e[..., 0, :] ** 2, axis=-1) + np.sum(f[..., 0, :] ** 2, axis=-1)
     return radii + dx * dx + dy * dy + 2.0 * best
+
+
+def _diou(a: Boxes, b: Boxes) -> NDArray[np.float64]:
+    """DIoU of broadcastable box arrays a, b (..., 7), e.g. (P, 1, 7) and (1, Q, 7)."""
+    centre_gap = np.sum((a[..., :3] - b[..., :3]) ** 2, axis=-1)
+    (bottom_a, top_a), (bottom_b, top_b) = _z_range(a), _z_range(b)
+    spread_z = np.maximum(np.abs(top_a - bottom_b), np.abs(top_b - bottom_a))
+    spread = _corner_spread_xy(a, b) + spread_z * spread_z
+    penalty = np.divide(centre_gap, spread, out=np.zeros_like(spread), where=spread > 0.0)
+    return _iou(a, b, three_d=True) - penalty.clip(0.0, 1.0)
 
 
 def diou_3d(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
     """(P, Q) DIoU of boxes a (P, 7) and b (Q, 7), in [-1, 1] (see the module docstring)."""
+    return _diou(_as_boxes(a)[:, None], _as_boxes(b)[None])
+
+
+def diou_3d_pairs(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
+    """(N,) DIoU of row i of a (N, 7) with row i of b (N, 7)."""
     arr_a, arr_b = _as_boxes(a), _as_boxes(b)
-    rows_a, rows_b = arr_a[:, None], arr_b[None]
-    centre_gap = np.sum((rows_a[..., :3] - rows_b[..., :3]) ** 2, axis=-1)
-    (bottom_a, top_a), (bottom_b, top_b) = _z_range(rows_a), _z_range(rows_b)
-    spread_z = np.maximum(np.abs(top_a - bottom_b), np.abs(top_b - bottom_a))
-    spread = _corner_spread_xy(arr_a, arr_b) + spread_z * spread_z
-    penalty = np.divide(centre_gap, spread, out=np.zeros_like(spread), where=spread > 0.0)
-    return _iou(rows_a, rows_b, three_d=True) - penalty.clip(0.0, 1.0)
+    if arr_a.shape != arr_b.shape:
+        raise ValueError(f"paired boxes differ in shape: {arr_a.shape} and {arr_b.shape}")
+    return _diou(arr_a, arr_b)
