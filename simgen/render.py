@@ -37,6 +37,7 @@ from simgen.skeleton import KEYPOINT_INDEX
 SLICE_S = 0.01  # longest time over which a humanoid keeps one pose within a sweep
 BALL_INSTANCE_ID = 1000  # instance id of the ball's points (humanoids: their track id; others: -1)
 MAX_NET_PASSES = 3
+REACH_MARGIN_M = 0.05  # a pose between two captured ones may reach a little further than either
 
 
 @dataclass(frozen=True)
@@ -94,6 +95,14 @@ class World:
         self.num_parts = len(templates)
         self.parts = PartCaster([(local[h], faces) for local, faces, _ in templates for h in range(clip.num_humanoids)])
         self.face_reflectivity = np.concatenate([REFLECTIVITY[materials].reshape(-1) for _, _, materials in templates])
+        # Each humanoid's reach from `middle` over the clip: the radius of its bounding sphere.
+        rotation, origin = part_frames(clip.keypoints_m.reshape(-1, 12, 3).astype(np.float64))
+        humanoid = np.arange(len(origin)) % clip.num_humanoids
+        template = np.arange(self.num_parts)[None] * clip.num_humanoids + humanoid[:, None]
+        part_centres = np.einsum("ipjk,ipk->ipj", rotation, self.parts.centre[template]) + origin
+        middle = clip.keypoints_m.reshape(-1, 12, 3)[:, KEYPOINT_INDEX["middle"]]
+        reach = (np.linalg.norm(part_centres - middle[:, None], axis=2) + self.parts.radius[template]).max(axis=1)
+        self.body_radius = reach.reshape(clip.num_frames, clip.num_humanoids).max(axis=0) + REACH_MARGIN_M
         self.semantic = np.where(clip.team == "official", OFFICIAL, PLAYER).astype(np.uint8)
         # Goals are small seen from a sensor: only rays through their bounding spheres are cast at
         # them. Boards and a stand surround the sensor: with them, every ray is cast.
@@ -135,48 +144,69 @@ def _ranges(starts: NDArray[np.int64], stops: NDArray[np.int64]) -> tuple[NDArra
     return starts[which] + offsets, which
 
 
+ELEVATION_BIN_RAD = np.radians(2.0)  # rays are bucketed by elevation band, then sorted by azimuth
+
+
 def sphere_candidates(origins, directions, sensor, centres, radius, slice_of_ray, t_max) -> tuple[NDArray, NDArray]:
     """(ray, sphere) pairs whose ray passes through the sphere before t_max[ray].
 
     centres (S, M, 3) and radius (S, M): M spheres per time slice; a ray of slice s meets only the
-    spheres of slice s; sphere = s * M + m. Rays are sorted by (origin, slice, azimuth), and each
-    sphere looks up only the rays of its azimuth interval as seen from each origin (one per
-    sensor), so the cost grows with the rays, not rays x spheres.
+    spheres of slice s; sphere = s * M + m. Rays are sorted by (origin, slice, 2-degree elevation
+    band, azimuth); each sphere looks up, in each band it spans, only the rays of its azimuth
+    interval as seen from each origin (one per sensor), so the cost grows with the rays and the
+    candidates, not rays x spheres.
     """
-    num_slices, num_humanoids = radius.shape
+    num_slices, num_spheres = radius.shape
     sensors, first = np.unique(sensor, return_index=True)
     unique_origins = origins[first]
-    group = np.searchsorted(sensors, sensor) * num_slices + slice_of_ray
+    elevation = np.arcsin(np.clip(directions[:, 2], -1, 1))
+    num_bands = int(np.ceil(np.pi / ELEVATION_BIN_RAD)) + 1
+    band = ((elevation + np.pi / 2) / ELEVATION_BIN_RAD).astype(np.int64)
+    group = (np.searchsorted(sensors, sensor) * num_slices + slice_of_ray) * num_bands + band
     azimuth = np.arctan2(directions[:, 1], directions[:, 0]) + np.pi  # [0, 2 pi]
     width = 2 * np.pi + 1.0
-    order = np.argsort(group * width + azimuth)
-    sorted_key = (group * width + azimuth)[order]
-    # One query per (origin, slice, sphere).
-    to_centre = centres[None] - unique_origins[:, None, None]  # (O, S, H, 3)
+    key = group * width + azimuth
+    order = np.argsort(key)
+    sorted_key = key[order]
+    # Each sphere seen from each origin: azimuth interval and elevation bands.
+    to_centre = centres[None] - unique_origins[:, None, None]  # (O, S, M, 3)
+    distance = np.linalg.norm(to_centre, axis=-1)
     distance_xy = np.hypot(to_centre[..., 0], to_centre[..., 1])
     centre_azimuth = np.arctan2(to_centre[..., 1], to_centre[..., 0]) + np.pi
     half = np.where(distance_xy > radius, np.arcsin(np.minimum(radius / np.maximum(distance_xy, 1e-9), 1)), np.pi)
-    base = (np.arange(len(unique_origins))[:, None] * num_slices + np.arange(num_slices)[None])[..., None] * width
-    low, high = centre_azimuth - half, centre_azimuth + half
-    # Split intervals that wrap round 0 / 2 pi into two; clip to the group's [0, 2 pi].
-    queries = [(np.maximum(low, 0), np.minimum(high, 2 * np.pi)), (low + 2 * np.pi, np.full_like(low, 2 * np.pi)), (np.zeros_like(high), high - 2 * np.pi)]
-    instance = np.broadcast_to(np.arange(num_slices * num_humanoids).reshape(num_slices, num_humanoids), low.shape)
-    rays_out, instances_out = [], []
-    for lo, hi in queries:
-        valid = (hi > lo).reshape(-1)
-        starts = np.searchsorted(sorted_key, (base + lo).reshape(-1)[valid])
-        stops = np.searchsorted(sorted_key, (base + hi).reshape(-1)[valid], side="right")
+    angular = np.arcsin(np.minimum(radius / np.maximum(distance, 1e-9), 1))
+    centre_elevation = np.arcsin(np.clip(to_centre[..., 2] / np.maximum(distance, 1e-9), -1, 1))
+    inside = distance <= radius
+    low_band = np.where(inside, 0, ((centre_elevation - angular + np.pi / 2) / ELEVATION_BIN_RAD).astype(np.int64).clip(0, num_bands - 1))
+    high_band = np.where(inside, num_bands - 1, ((centre_elevation + angular + np.pi / 2) / ELEVATION_BIN_RAD).astype(np.int64).clip(0, num_bands - 1))
+    sphere_id = np.broadcast_to(np.arange(num_slices * num_spheres).reshape(num_slices, num_spheres), half.shape).reshape(-1)
+    origin_slice = (np.arange(len(unique_origins))[:, None] * num_slices + np.arange(num_slices)[None])[..., None]
+    origin_slice = np.broadcast_to(origin_slice, half.shape).reshape(-1)
+    # One query per (origin, slice, sphere, band).
+    bands_per = (high_band - low_band + 1).reshape(-1)
+    query = np.repeat(np.arange(len(bands_per)), bands_per)
+    query_band = low_band.reshape(-1)[query] + np.arange(len(query)) - np.repeat(np.cumsum(bands_per) - bands_per, bands_per)
+    base = (origin_slice[query] * num_bands + query_band) * width
+    low = (centre_azimuth - half).reshape(-1)[query]
+    high = (centre_azimuth + half).reshape(-1)[query]
+    # Split intervals that wrap round 0 / 2 pi into two; clip to [0, 2 pi].
+    pieces = [(np.maximum(low, 0), np.minimum(high, 2 * np.pi)), (low + 2 * np.pi, np.full_like(low, 2 * np.pi)), (np.zeros_like(high), high - 2 * np.pi)]
+    rays_out, spheres_out = [], []
+    for lo, hi in pieces:
+        valid = hi > lo
+        starts = np.searchsorted(sorted_key, (base + lo)[valid])
+        stops = np.searchsorted(sorted_key, (base + hi)[valid], side="right")
         position, which = _ranges(starts, stops)
         rays_out.append(order[position])
-        instances_out.append(instance.reshape(-1)[valid][which])
-    ray, inst = np.concatenate(rays_out), np.concatenate(instances_out)
+        spheres_out.append(sphere_id[query[valid]][which])
+    ray, sphere = np.concatenate(rays_out), np.concatenate(spheres_out)
     # Exact test against the sphere, in front of the nearest hit so far.
-    to_centre = centres.reshape(-1, 3)[inst] - origins[ray]
+    to_centre = centres.reshape(-1, 3)[sphere] - origins[ray]
     t_mid = np.einsum("ki,ki->k", to_centre, directions[ray])
     miss2 = np.einsum("ki,ki->k", to_centre, to_centre) - t_mid**2
-    r = radius.reshape(-1)[inst]
+    r = radius.reshape(-1)[sphere]
     near = (miss2 < r**2) & (t_mid > -r) & (t_mid - r < t_max[ray])
-    return ray[near], inst[near]
+    return ray[near], sphere[near]
 
 
 def _cos_incidence(normals: NDArray, directions: NDArray) -> NDArray[np.float64]:
@@ -202,19 +232,15 @@ def cast(world: World, rays: Rays, frame_start_s: float, rng: np.random.Generato
     slice_times = np.clip(frame_start_s + (np.arange(num_slices) + 0.5) * SLICE_S, world.clip.time_s[0], world.clip.time_s[-1])
     keypoints, ball = interpolate_clip(world.clip, slice_times)
     num_humanoids = world.clip.num_humanoids
-    rotation, origin = part_frames(keypoints.reshape(-1, 12, 3))  # (S*H, P, ...)
     parts = world.num_parts
-    templates = np.arange(parts)[None] * num_humanoids + (np.arange(len(origin)) % num_humanoids)[:, None]
-    part_centres = np.einsum("ipjk,ipk->ipj", rotation, world.parts.centre[templates]) + origin
-    body_centres = keypoints[:, :, KEYPOINT_INDEX["middle"]].reshape(-1, 3)
-    reach = np.linalg.norm(part_centres - body_centres[:, None], axis=2) + world.parts.radius[templates]
+    body_centres = keypoints[:, :, KEYPOINT_INDEX["middle"]]
     statics = world.static_spheres
     centres = np.concatenate(
-        [body_centres.reshape(num_slices, num_humanoids, 3), ball[:, None], np.broadcast_to(statics[:, :3], (num_slices, len(statics), 3))],
+        [body_centres, ball[:, None], np.broadcast_to(statics[:, :3], (num_slices, len(statics), 3))],
         axis=1,
     )
     radius = np.concatenate(
-        [reach.max(axis=1).reshape(num_slices, num_humanoids), np.full((num_slices, 1), BALL_RADIUS_M), np.broadcast_to(statics[:, 3], (num_slices, len(statics)))],
+        [np.broadcast_to(world.body_radius, (num_slices, num_humanoids)), np.full((num_slices, 1), BALL_RADIUS_M), np.broadcast_to(statics[:, 3], (num_slices, len(statics)))],
         axis=1,
     )
     ray, sphere = sphere_candidates(o, d, rays.sensor, centres, radius, slice_of_ray, t)
@@ -264,12 +290,15 @@ def cast(world: World, rays: Rays, frame_start_s: float, rng: np.random.Generato
     reflectivity[idx] = BALL_REFLECTIVITY
     cos_incidence[idx] = _cos_incidence(o[idx] + ball_t[hit, None] * d[idx] - ball_centre[hit], d[idx])
 
-    # The humanoids: each candidate ray is cast at every part of the posed body.
+    # The humanoids: each candidate ray is cast at every part of the posed body (posed only if
+    # some ray may reach it).
     pair = kind < num_humanoids
     if pair.any():
-        posed = np.repeat(sphere[pair] // centres.shape[1] * num_humanoids + kind[pair], parts)
+        instances, posed = np.unique(sphere[pair] // centres.shape[1] * num_humanoids + kind[pair], return_inverse=True)
+        rotation, origin = part_frames(keypoints.reshape(-1, 12, 3)[instances])
+        posed = np.repeat(posed, parts)
         part = np.tile(np.arange(parts), pair.sum())
-        humanoid = posed % num_humanoids
+        humanoid = np.repeat(kind[pair], parts)
         hits = world.parts.cast(o, d, np.repeat(ray[pair], parts), part * num_humanoids + humanoid, rotation[posed, part], origin[posed, part], t)
         best = argmin_per_group(n, hits.ray, hits.t_m)
         got = np.nonzero(best >= 0)[0]
