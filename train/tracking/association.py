@@ -1,0 +1,76 @@
+"""Affinity matrices and Hungarian matching with a lower bound.
+
+The paper's affinity of a tracklet and a trajectory is the weighted sum of the 3D DIoU of their
+boxes at t-2 and at t-1. Most pairs of 22 players are metres apart and can never reach the lower
+bound, so a cheap bound on the DIoU, from centre distances alone, prunes them before the exact
+DIoU; the pruned entries are -inf, and matching (which never uses a pair below the bound) gives
+exactly what it would on the full matrix.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import linear_sum_assignment
+
+from train.geometry import diou_3d_pairs
+
+
+def _half_diagonals(boxes: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """BEV and 3D centre-to-corner distances in metres of boxes (..., 7)."""
+    bev = 0.5 * np.hypot(boxes[..., 3], boxes[..., 4])
+    return bev, 0.5 * np.sqrt(boxes[..., 3] ** 2 + boxes[..., 4] ** 2 + boxes[..., 5] ** 2)
+
+
+def diou_upper_bound(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """An upper bound on the DIoU of boxes a (..., 7) and b (..., 7), broadcast.
+
+    With d the centre distance and R_a, R_b the centre-to-corner distances, the farthest corner
+    pair is at most d + R_a + R_b apart, so the penalty is at least d^2 / (d + R_a + R_b)^2; the IoU
+    is 0 where the BEV circumscribed circles are apart and at most 1 elsewhere.
+    """
+    bev_a, reach_a = _half_diagonals(a)
+    bev_b, reach_b = _half_diagonals(b)
+    gap_bev_sq = (a[..., 0] - b[..., 0]) ** 2 + (a[..., 1] - b[..., 1]) ** 2
+    gap = np.sqrt(gap_bev_sq + (a[..., 2] - b[..., 2]) ** 2)
+    far = np.where(gap > 0.0, gap / np.maximum(gap + reach_a + reach_b, 1e-300), 0.0)
+    may_overlap = gap_bev_sq < (bev_a + bev_b) ** 2
+    return may_overlap - far * far
+
+
+def diou_affinity(
+    tracklet_boxes: NDArray[np.float64],
+    trajectory_boxes: NDArray[np.float64],
+    weights: tuple[float, ...],
+    lower_bound: float | NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """(N, K) weighted sum over F frames of the DIoU of tracklets (N, F, 7) and trajectories (K, F, 7).
+
+    Entries that cannot reach lower_bound (a number, or one per trajectory) are -inf.
+    """
+    n, k = len(tracklet_boxes), len(trajectory_boxes)
+    affinity = np.full((n, k), -np.inf)
+    if n == 0 or k == 0:
+        return affinity
+    a, b = tracklet_boxes[:, None], trajectory_boxes[None]  # (N, 1, F, 7), (1, K, F, 7)
+    bound = diou_upper_bound(a, b) @ np.asarray(weights)
+    rows, cols = np.nonzero(bound >= lower_bound)
+    if len(rows):
+        frames = len(weights)
+        diou = diou_3d_pairs(tracklet_boxes[rows].reshape(-1, 7), trajectory_boxes[cols].reshape(-1, 7))
+        affinity[rows, cols] = diou.reshape(-1, frames) @ np.asarray(weights)
+    return affinity
+
+
+def match(affinity: NDArray[np.float64], lower_bound: float) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Rows and columns of the Hungarian matching that maximises the summed margin above lower_bound.
+
+    Pairs below lower_bound are never matched: a gated maximum-weight matching, with weights
+    ``affinity - lower_bound``, so a pair below the bound neither matches nor sways other pairs.
+    """
+    allowed = affinity >= lower_bound
+    if not allowed.any():
+        return np.empty(0, dtype=np.intp), np.empty(0, dtype=np.intp)
+    rows, cols = linear_sum_assignment(np.where(allowed, lower_bound - affinity, 0.0))
+    keep = allowed[rows, cols]
+    return rows[keep], cols[keep]

@@ -1,0 +1,96 @@
+"""Live tracks as one table of per-track arrays: ids, recent boxes, Kalman state, life-cycle counts.
+
+Both trackers keep their tracks here and change them a frame at a time: predict every track,
+write the boxes measured for the matched ones (the prediction for the others), count the frame,
+drop the dead and append the newborn.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+from numpy.typing import NDArray
+
+from train.tracking import life_cycle, motion_model
+from train.tracking.life_cycle import LifeCycleConfig
+from train.tracking.motion_model import KalmanConfig, KalmanState
+
+
+@dataclass
+class TrackTable:
+    ids: NDArray[np.int64]  # (K,)
+    boxes: NDArray[np.float64]  # (K, H, 7): the last H frames' boxes, oldest first
+    mean: NDArray[np.float64]  # (K, 10) Kalman state
+    covariance: NDArray[np.float64]  # (K, 10, 10)
+    hits: NDArray[np.int64]  # (K,) matched frames
+    misses: NDArray[np.int64]  # (K,) consecutive unmatched frames
+    scores: NDArray[np.float64]  # (K,) score of the last matched detection
+
+    @property
+    def kalman(self) -> KalmanState:
+        return KalmanState(self.mean, self.covariance)
+
+    def take(self, index: NDArray[np.intp] | NDArray[np.bool_]) -> TrackTable:
+        return TrackTable(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
+
+
+def new_tracks(
+    boxes: NDArray[np.float64], scores: NDArray[np.float64], first_id: int, config: KalmanConfig
+) -> TrackTable:
+    """Tracks born from boxes (N, H, 7), the last of each the current one, with ids from first_id."""
+    n = len(boxes)
+    state = motion_model.init_state(boxes[:, -1], config)
+    return TrackTable(
+        ids=np.arange(first_id, first_id + n, dtype=np.int64),
+        boxes=boxes.copy(),
+        mean=state.mean,
+        covariance=state.covariance,
+        hits=np.ones(n, dtype=np.int64),
+        misses=np.zeros(n, dtype=np.int64),
+        scores=scores.copy(),
+    )
+
+
+def end_frame(
+    tracks: TrackTable,
+    predicted: KalmanState,
+    matched: NDArray[np.bool_],
+    measured: NDArray[np.float64],
+    scores: NDArray[np.float64],
+    kalman: KalmanConfig,
+    rules: LifeCycleConfig,
+) -> TrackTable:
+    """The tracks after a frame, then counted, the dead dropped.
+
+    Matched tracks (mask) take their measured boxes (K, H, 7) as their recent boxes (a tracklet's
+    past boxes replace the older ones) and their scores (K,); the Kalman filter measures the last
+    box. The others add their predicted box.
+    """
+    state = predicted
+    if matched.any():
+        updated = motion_model.update(
+            KalmanState(predicted.mean[matched], predicted.covariance[matched]), measured[matched, -1], kalman
+        )
+        state = KalmanState(predicted.mean.copy(), predicted.covariance.copy())
+        state.mean[matched], state.covariance[matched] = updated.mean, updated.covariance
+    carried = np.concatenate([tracks.boxes[:, 1:], motion_model.state_boxes(predicted)[:, None]], axis=1)
+    hits, misses = life_cycle.count_frame(tracks.hits, tracks.misses, matched)
+    table = TrackTable(
+        ids=tracks.ids,
+        boxes=np.where(matched[:, None, None], measured, carried),
+        mean=state.mean,
+        covariance=state.covariance,
+        hits=hits,
+        misses=misses,
+        scores=np.where(matched, scores, tracks.scores),
+    )
+    return table.take(life_cycle.survives(hits, misses, rules))
+
+
+def append(tracks: TrackTable, newborn: TrackTable) -> TrackTable:
+    if not len(newborn.ids):
+        return tracks
+    return TrackTable(
+        **{f.name: np.concatenate([getattr(tracks, f.name), getattr(newborn, f.name)]) for f in fields(tracks)}
+    )
