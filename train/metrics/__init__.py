@@ -1,0 +1,1 @@
+"""Evaluation metrics for the tracker (and, later, the detector)."""
