@@ -7,9 +7,10 @@ IoU 0.5 / 1.5 = 1/3, one 10 m away gives 0.
 import numpy as np
 import pytest
 
+from simgen.datasets.kitti import parse_labels
 from train.geometry import iou_3d_pairs
 from train.metrics.hota import hota
-from train.metrics.kitti import camera_boxes, kitti_lines, placeholder_2d, write_kitti_tracking
+from train.metrics.kitti import write_kitti_tracking
 from train.metrics.tracking import evaluate_tracking, recall_thresholds, switches_and_fragments
 from train.tracking.types import GroundTruthFrame, TrackedFrame
 
@@ -171,24 +172,17 @@ def test_hota_hand_cases():
     assert result.loca == pytest.approx((6 / 3 + 13) / 19)  # LocA is 1 where nothing matched
 
 
-def test_kitti_export(tmp_path):
-    boxes = np.array([[10.0, 5.0, 0.9, 0.6, 0.8, 1.8, 0.3], [-3.0, 2.0, 1.0, 0.5, 0.7, 2.0, -2.5]])
-    path = tmp_path / "0000.txt"
-    write_kitti_tracking(path, [TrackedFrame(boxes, [3, 4], [0.9, 0.5]), TrackedFrame(boxes[:1], [3], [0.8])])
-    rows = [line.split() for line in path.read_text().splitlines()]
-    assert [(r[0], r[1], r[2], len(r)) for r in rows] == [
-        ("0", "3", "Pedestrian", 18),
-        ("0", "4", "Pedestrian", 18),
-        ("1", "3", "Pedestrian", 18),
-    ]
-    assert [float(r[17]) for r in rows] == [0.9, 0.5, 0.8]
-    ground = kitti_lines([GroundTruthFrame(boxes, [3, 4])])
-    assert [len(line.split()) for line in ground] == [17, 17]
-    # Back from KITTI's camera frame (x_cam = -y, y_cam = -z down to the bottom, z_cam = x): the same boxes.
-    h, w, l, xc, yc, zc, ry = np.array([r[10:17] for r in rows[:2]], dtype=float).T
-    back = np.column_stack([zc, -xc, -yc + h / 2, l, w, h, -ry - np.pi / 2])
-    np.testing.assert_allclose(iou_3d_pairs(back, boxes), 1.0, atol=1e-5)
-    np.testing.assert_allclose(camera_boxes(boxes)[:, 3:6], np.array([r[13:16] for r in rows[:2]], dtype=float))
-    image = placeholder_2d(boxes)
-    assert np.all(image[:, 3] - image[:, 1] >= 40) and np.all(image[:, 2] - image[:, 0] >= 40)
-    assert np.all(image >= 0)
+def test_kitti_export_reads_back_as_a_simgen_kitti_tracking_label(tmp_path):
+    boxes = np.array([[10.0, 5.0, 0.9, 0.6, 0.8, 1.8, 0.3], [-52.0, 33.0, 1.0, 0.5, 0.7, 2.0, -2.5]])
+    truth, tracked = tmp_path / "truth.txt", tmp_path / "tracked.txt"
+    write_kitti_tracking(truth, [GroundTruthFrame(boxes, [3, 4]), GroundTruthFrame(boxes[:1], [3])])
+    write_kitti_tracking(tracked, [TrackedFrame(boxes, [3, 4], [0.9, 0.5]), TrackedFrame(boxes[:1], [3], [0.8])])
+    labels = parse_labels(truth.read_text(), truth, tracking=True)
+    assert labels["frame"].tolist() == [0, 0, 1] and labels["track_id"].tolist() == [3, 4, 3]
+    assert labels["class_name"].tolist() == ["Pedestrian"] * 3
+    np.testing.assert_allclose(labels["boxes"], np.concatenate([boxes, boxes[:1]]), atol=1e-6)
+    rows = [line.split() for line in tracked.read_text().splitlines()]
+    assert [row[:17] for row in rows] == [line.split() for line in truth.read_text().splitlines()]
+    assert [float(row[17]) for row in rows] == [0.9, 0.5, 0.8]
+    heights = [float(row[9]) - float(row[7]) for row in rows]
+    assert min(heights) >= 40  # KITTI's devkit drops boxes under 25 px

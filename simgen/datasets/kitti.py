@@ -48,18 +48,26 @@ def calib_path(tracking: bool, clip_index: int, index: int = 0) -> str:
     return f"training/calib/{clip_index:04d}.txt" if tracking else f"training/calib/{sample_name(clip_index, index)}.txt"
 
 
-def label_lines(frame: LabelledFrame) -> list[str]:
-    """Object label lines, `type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry` (tracking puts frame and track id first)."""
-    labels = frame.labels
-    fields = kitti_boxes(labels.boxes)
-    lines = []
-    for i, name in enumerate(class_names(labels.team)):
-        occluded = 0 if labels.num_points[i] > 0 else UNKNOWN_OCCLUSION
+def box_fields(boxes: NDArray) -> list[str]:
+    """`alpha x1 y1 x2 y2 h w l x y z ry` of pitch-frame boxes (H, 7), as the label lines write them."""
+    fields = kitti_boxes(boxes)
+    out = []
+    for i in range(len(fields["ry"])):
         bbox = " ".join(f"{v:.2f}" for v in fields["bbox"][i])
         dims = " ".join(float32_text(v) for v in fields["dims"][i])
         location = " ".join(float64_text(v) for v in fields["location"][i])
-        lines.append(f"{name} 0 {occluded} {fields['alpha'][i]:.2f} {bbox} {dims} {location} {float64_text(fields['ry'][i])}")
-    return lines
+        out.append(f"{fields['alpha'][i]:.2f} {bbox} {dims} {location} {float64_text(fields['ry'][i])}")
+    return out
+
+
+def label_lines(frame: LabelledFrame) -> list[str]:
+    """Object label lines, `type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry` (tracking puts frame and track id first)."""
+    labels = frame.labels
+    occluded = np.where(labels.num_points > 0, 0, UNKNOWN_OCCLUSION)
+    return [
+        f"{name} 0 {occlusion} {fields}"
+        for name, occlusion, fields in zip(class_names(labels.team), occluded.tolist(), box_fields(labels.boxes))
+    ]
 
 
 def write_kitti_clip(root: Path, frames: Sequence[LabelledFrame], clip_index: int, tracking: bool) -> list[FileRecord]:
