@@ -6,10 +6,11 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 venv=$root/.venv
 
-# 1. Debian packages: the engine's build and runtime needs, and Open3D's libusb.
+# 1. Debian packages: the engine's build and runtime needs, Open3D's libusb, and chromium (the
+#    QA report's browser test).
 packages=(build-essential cmake libgl1-mesa-dev libsdl2-dev libsdl2-image-dev libsdl2-ttf-dev
   libsdl2-gfx-dev libboost-python-dev libboost-system-dev libboost-filesystem-dev
-  libboost-thread-dev libdirectfb-dev libst-dev mesa-utils xvfb libusb-1.0-0 patch)
+  libboost-thread-dev libdirectfb-dev libst-dev mesa-utils xvfb libusb-1.0-0 patch chromium)
 missing=()
 for package in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" || missing+=("$package")

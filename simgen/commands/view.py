@@ -1,0 +1,96 @@
+"""`simgen view`: bird's-eye and side views of a clip's frames as PNGs and an MP4; frames as PCD or PLY."""
+
+from __future__ import annotations
+
+import argparse
+import textwrap
+import time
+from pathlib import Path
+
+from simgen.errors import UserError
+
+DEFAULT_PX_PER_M = 10.0
+
+
+def register(subparsers) -> None:
+    from simgen.view import COLOURINGS, EXPORT_FORMATS
+
+    parser = subparsers.add_parser(
+        "view",
+        help="pictures of a clip: bird's-eye and side views (PNG, MP4); frames as PCD or PLY",
+        description=textwrap.fill(
+            "Draw the frames A:B of a clip: a bird's-eye view of the pitch (points coloured by height or "
+            "intensity, the painted lines, each box with its track id and a heading arrow, grey when no "
+            "point hit it; the sensors and their heads' boresights) above a side view (looking along +y, "
+            "height stretched x4). Writes OUT/<clip>/frame_NNNNNN.png per frame and OUT/<clip>.mp4 "
+            "(mp4v, at the clip's frame rate). --export-frame writes frames' points as "
+            "OUT/<clip>/frame_NNNNNN.pcd or .ply (x, y, z in the pitch frame, metres, and intensity) "
+            "for CloudCompare or Open3D's viewer.",
+            width=88,
+        ),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("dataset", type=Path, metavar="DATASET", help="dataset directory (with manifest.json)")
+    parser.add_argument("-o", "--output", type=Path, required=True, metavar="OUT", help="output directory (created)")
+    parser.add_argument("--clip", help="clip id (default: the first clip)")
+    parser.add_argument("--frames", default=":", metavar="A:B", help="frames A to B-1 (Python slice; default all), or one frame A")
+    parser.add_argument("--colour", choices=COLOURINGS, default="height", help="colour points by height or intensity (default height)")
+    parser.add_argument("--scale", type=float, default=DEFAULT_PX_PER_M, metavar="PX_PER_M",
+                        help=f"pixels per metre (default {DEFAULT_PX_PER_M:g})")
+    parser.add_argument("--export-frame", type=int, action="append", default=[], metavar="I",
+                        help="also write frame I's points as PCD or PLY (repeatable)")
+    parser.add_argument("--export-format", choices=EXPORT_FORMATS, default="pcd", help="format of --export-frame (default pcd)")
+    parser.add_argument("--no-images", action="store_true", help="write no PNG or MP4 (with --export-frame: only the exports)")
+    parser.set_defaults(func=run)
+
+
+def frame_range(text: str, frames: int) -> range:
+    """Frames of `A:B` (either may be left out) or `A`, within 0..frames-1; bad ones are a `UserError`."""
+    try:
+        if ":" in text:
+            start_text, stop_text = text.split(":", 1)
+            start = int(start_text) if start_text.strip() else 0
+            stop = int(stop_text) if stop_text.strip() else frames
+        else:
+            start = int(text)
+            stop = start + 1
+    except ValueError:
+        raise UserError(f"--frames: expected A:B or A (whole numbers), got {text!r}") from None
+    if not 0 <= start < stop <= frames:
+        raise UserError(f"--frames {text}: the clip has frames 0-{frames - 1}")
+    return range(start, stop)
+
+
+def run(args) -> int:
+    from simgen.datasets import open_dataset
+    from simgen.qa.checks import plural
+    from simgen.view.export import export_frame
+    from simgen.view.output import write_clip_view
+
+    if not 1.0 <= args.scale <= 100.0:
+        raise UserError(f"--scale must be in 1-100 pixels per metre, got {args.scale:g}")
+    if args.no_images and not args.export_frame:
+        raise UserError("--no-images leaves nothing to write: add --export-frame I")
+    started = time.perf_counter()
+    dataset = open_dataset(args.dataset)
+    clip = args.clip if args.clip is not None else dataset.clips[0]
+    frames = frame_range(args.frames, dataset.num_frames(clip))
+    exports = [frame_range(str(i), dataset.num_frames(clip))[0] for i in args.export_frame]
+    out = args.output
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{out}: exists and is not a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    if not args.no_images:
+        view = write_clip_view(dataset, clip, frames, out, args.colour, args.scale)
+        last = f" ... frame_{frames.stop - 1:06d}.png" if len(frames) > 1 else ""
+        print(f"{out / clip}/: {plural(view.frames, 'PNG')} frame_{frames.start:06d}.png{last} "
+              f"({view.size_px[0]} x {view.size_px[1]} px)")
+        print(f"{view.video}: {plural(view.frames, 'frame')} at {dataset.manifest.sensors[0]['frame_rate_hz']:g} fps (mp4v)")
+    for index in exports:
+        path = out / clip / f"frame_{index:06d}.{args.export_format}"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        frame = dataset.frame(clip, index)
+        export_frame(frame, path)
+        print(f"{path}: {len(frame.points_m):,} points (x, y, z pitch frame, intensity)")
+    print(f"done in {time.perf_counter() - started:.1f} s")
+    return 0

@@ -1,0 +1,102 @@
+"""Label sanity of a clip's frames: boxes on the pitch and of a human size, stored point counts that
+match the points, and track ids that neither skip frames nor jump.
+
+Boxes describe the middle of a frame's sweep while each point has its own shot time, so a
+humanoid's points are looked for in its box grown by a margin plus its speed x half a frame.
+`Locate(frame index, box index)` says where a box is stored: (file, row).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from simgen.datasets.frame import Frame
+from simgen.pitch import HALF_LENGTH_M, HALF_WIDTH_M
+from simgen.qa.checks import Problem, plural
+from simgen.qa.tolerances import LabelTolerances
+
+Locate = Callable[[int, int], tuple[str, int]]
+GROUND_SLACK_M = 0.01  # a box bottom may sit this far below z = 0 (float32 text round trips)
+SIZE_NAMES = ("length", "width", "height")
+
+
+def box_problems(frame: Frame, locate: Locate, tol: LabelTolerances) -> list[Problem]:
+    """Boxes that are not finite, not human-sized, off the pitch, under the ground or badly turned."""
+    problems = []
+    for i, (x, y, z, *size, yaw) in enumerate(np.asarray(frame.boxes, np.float64)):
+        file, row = locate(frame.index, i)
+        if not np.isfinite([x, y, z, *size, yaw]).all():
+            problems.append(Problem(file, row, "box has a value that is not finite"))
+            continue
+        for name, value in zip(SIZE_NAMES, size):
+            if not tol.min_box_size_m <= value <= tol.max_box_size_m:
+                problems.append(Problem(file, row, f"box {name} {value:.3f} m outside {tol.min_box_size_m:g}-{tol.max_box_size_m:g} m"))
+        if abs(x) > HALF_LENGTH_M + tol.pitch_margin_m or abs(y) > HALF_WIDTH_M + tol.pitch_margin_m:
+            problems.append(Problem(file, row, f"box centre ({x:.2f}, {y:.2f}) m is off the pitch grown by {tol.pitch_margin_m:g} m"))
+        if z - size[2] / 2 < -GROUND_SLACK_M:
+            problems.append(Problem(file, row, f"box bottom at z = {z - size[2] / 2:.3f} m, under the ground"))
+        if not -np.pi - 1e-6 <= yaw <= np.pi + 1e-6:
+            problems.append(Problem(file, row, f"yaw {yaw:.3f} rad outside [-pi, pi]"))
+    return problems
+
+
+def in_box(points: NDArray, box: NDArray, grow_m: float) -> NDArray[np.bool_]:
+    """Which points lie in the box grown by `grow_m` across and along the heading, exactly in z."""
+    offset = np.asarray(points, np.float64) - box[:3]
+    cos, sin = np.cos(box[6]), np.sin(box[6])
+    along = offset[:, 0] * cos + offset[:, 1] * sin
+    across = -offset[:, 0] * sin + offset[:, 1] * cos
+    return (
+        (np.abs(along) <= box[3] / 2 + grow_m)
+        & (np.abs(across) <= box[4] / 2 + grow_m)
+        & (np.abs(offset[:, 2]) <= box[5] / 2 + grow_m)
+    )
+
+
+def count_problems(frame: Frame, locate: Locate, half_frame_s: float, tol: LabelTolerances) -> list[Problem]:
+    """Stored `num_points` against the points carrying the box's track id, and those inside the box."""
+    order = np.argsort(frame.instance_id, kind="stable")
+    ids = frame.instance_id[order]
+    problems = []
+    for i, (box, track, stored) in enumerate(zip(np.asarray(frame.boxes, np.float64), frame.track_id, frame.num_points)):
+        file, row = locate(frame.index, i)
+        lo, hi = np.searchsorted(ids, track, "left"), np.searchsorted(ids, track, "right")
+        if hi - lo != stored:
+            problems.append(Problem(file, row, f"num_points is {stored}, the frame has {plural(hi - lo, 'point')} of track id {track}"))
+            continue
+        grow = tol.box_margin_m + float(np.hypot(*frame.velocity_mps[i, :2])) * half_frame_s
+        inside = int(in_box(frame.points_m[order[lo:hi]], box, grow).sum())
+        if inside != stored:
+            problems.append(Problem(file, row, f"{plural(inside, 'point')} inside the box (grown by {grow:.2f} m), num_points is {stored}"))
+    return problems
+
+
+def track_problems(
+    tracks: Sequence[tuple[int, NDArray, NDArray]], locate: Locate, frame_rate_hz: float, tol: LabelTolerances
+) -> list[Problem]:
+    """Track ids twice in a frame, missing from frames between two sightings, or moving too fast.
+
+    `tracks`: per frame in order, (frame index, track ids (H,), boxes (H, 7)).
+    """
+    problems = []
+    last: dict[int, tuple[int, NDArray]] = {}  # track id -> (frame index, box centre) where last seen
+    for index, track_id, boxes in tracks:
+        ids, counts = np.unique(track_id, return_counts=True)
+        for track, count in zip(ids[counts > 1], counts[counts > 1]):
+            file, row = locate(index, int(np.flatnonzero(track_id == track)[1]))
+            problems.append(Problem(file, row, f"track id {track} appears {count} times in frame {index}"))
+        for i, track in enumerate(track_id):
+            file, row = locate(index, i)
+            centre = np.asarray(boxes[i, :2], np.float64)
+            seen = last.get(int(track))
+            if seen is not None and seen[0] < index - 1:
+                problems.append(Problem(file, row, f"track id {track} is missing from frames {seen[0] + 1}-{index - 1}"))
+            elif seen is not None and seen[0] == index - 1:
+                speed = float(np.linalg.norm(centre - seen[1])) * frame_rate_hz
+                if speed > tol.max_speed_mps:
+                    problems.append(Problem(file, row, f"track id {track} moved at {speed:.1f} m/s since frame {seen[0]} (limit {tol.max_speed_mps:g})"))
+            last[int(track)] = (index, centre)
+    return problems

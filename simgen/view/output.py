@@ -1,0 +1,79 @@
+"""Frames of a clip to files: one PNG per frame and an MP4 (OpenCV, mp4v), each written atomically."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from simgen.atomic import atomic_path
+from simgen.datasets.reader import Dataset
+from simgen.errors import UserError
+from simgen.qa.sensors import sensor_geometry
+from simgen.view.render import Canvas, background, canvas_for, render_frame
+
+
+@dataclass(frozen=True)
+class ClipView:
+    """What `write_clip_view` wrote."""
+
+    pngs: tuple[Path, ...]
+    video: Path
+    frames: int
+    size_px: tuple[int, int]  # width, height
+
+
+@contextlib.contextmanager
+def atomic_suffixed(path: Path) -> Iterator[Path]:
+    """Like `atomic_path`, but the temporary name keeps the suffix (writers that choose the format by it)."""
+    with atomic_path(path) as tmp:
+        named = tmp.with_name(tmp.name + path.suffix)
+        try:
+            yield named
+            os.replace(named, tmp)
+        finally:
+            named.unlink(missing_ok=True)
+
+
+def write_png(image: np.ndarray, path: Path) -> None:
+    ok, data = cv2.imencode(".png", image)
+    if not ok:
+        raise UserError(f"{path}: OpenCV could not encode the image")
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data.tobytes())
+
+
+def clip_canvas(dataset: Dataset, px_per_m: float) -> tuple[Canvas, np.ndarray]:
+    """The canvas and the background every frame of the dataset is drawn on."""
+    sensors = [sensor_geometry(info, dataset.manifest.scenario) for info in dataset.manifest.sensors]
+    canvas = canvas_for(sensors, px_per_m)
+    return canvas, background(canvas, sensors)
+
+
+def write_clip_view(dataset: Dataset, clip: str, frames: range, out_dir: Path, colouring: str, px_per_m: float) -> ClipView:
+    """OUT/<clip>/frame_NNNNNN.png for each frame and OUT/<clip>.mp4 of them all, at the clip's frame rate."""
+    canvas, base = clip_canvas(dataset, px_per_m)
+    frame_dir = out_dir / clip
+    frame_dir.mkdir(parents=True, exist_ok=True)
+    video = out_dir / f"{clip}.mp4"
+    fps = float(dataset.manifest.sensors[0]["frame_rate_hz"])
+    pngs = []
+    with atomic_suffixed(video) as tmp:
+        writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), fps, (canvas.width, canvas.height))
+        if not writer.isOpened():
+            raise UserError(f"{video}: OpenCV cannot write MP4 (mp4v) here")
+        try:
+            for index in frames:
+                image = render_frame(dataset.frame(clip, index), canvas, base, colouring)
+                png = frame_dir / f"frame_{index:06d}.png"
+                write_png(image, png)
+                pngs.append(png)
+                writer.write(image)
+        finally:
+            writer.release()
+    return ClipView(tuple(pngs), video, len(pngs), (canvas.width, canvas.height))

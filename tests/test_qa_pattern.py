@@ -1,0 +1,102 @@
+"""`simgen qa --pattern`: verdicts against Livox's official file, the report, and a browser that shows it."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+from pathlib import Path
+
+import cv2
+import pytest
+import yaml
+from conftest import run_simgen
+
+from simgen.cli import main
+from scan_patterns import HeadSpec
+from simgen.qa.pattern import head_qa
+from simgen.qa.tolerances import DEFAULT_PATH, load_tolerances
+
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+
+
+@pytest.fixture(scope="module")
+def risley(tmp_path_factory):
+    out = tmp_path_factory.mktemp("qa") / "risley"
+    return out, run_simgen("qa", "--pattern", "mid40-risley", "-o", out)
+
+
+def test_the_fitted_risley_pattern_passes_against_the_official_file(risley):
+    out, result = risley
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "PASS: 6 passed, 0 failed, 0 not applicable" in result.stdout
+    assert not re.search(r"^FAIL", result.stdout, re.M)
+    markdown = (out / "report.md").read_text()
+    images = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", markdown)
+    assert len(images) == 4 and all((out / image).is_file() for image in images)
+    assert "| pass | mid40-risley head 0 | coverage, 0.2 deg cells |" in markdown
+
+
+def test_the_papers_rose_fails_where_it_differs_from_the_sensor(tmp_path):
+    result = run_simgen("qa", "--pattern", "mid40-rose", "-o", tmp_path)
+    assert result.returncode == 1, result.stdout + result.stderr
+    rows = [re.split(r"\s{2,}", line) for line in result.stdout.splitlines()[1:-1]]
+    verdicts = {f"{row[0]} {row[2]}" for row in rows}
+    assert "FAIL coverage, 0.1 deg cells" in verdicts and "FAIL radial density" in verdicts
+    assert "pass points per frame on a 0.5 x 1.8 m target" in verdicts and "pass shot rate" in verdicts
+
+
+def test_chromium_shows_the_report_with_every_image_loaded(risley, tmp_path):
+    if not CHROMIUM.exists():
+        pytest.skip("/usr/bin/chromium is missing (Debian package `chromium`; scripts/setup.sh installs it)")
+    out, _ = risley
+    url = (out / "index.html").as_uri()
+    expected = len(list((out / "plots").glob("*.png")))
+
+    def chromium(*args: str) -> subprocess.CompletedProcess:
+        profile = tmp_path / f"profile-{len(list(tmp_path.iterdir()))}"
+        return subprocess.run([str(CHROMIUM), *CHROMIUM_FLAGS, f"--user-data-dir={profile}", *args, url],
+                              capture_output=True, text=True, timeout=120)
+
+    dom = chromium("--virtual-time-budget=10000", "--dump-dom").stdout
+    assert f'data-images-loaded="{expected}/{expected}"' in dom, dom[:500]
+    shot = tmp_path / "report.png"
+    chromium(f"--screenshot={shot}", "--window-size=1400,3000")
+    image = cv2.imread(str(shot))
+    assert image.shape == (3000, 1400, 3) and image.std() > 20  # a page, not a blank one
+
+
+def test_tolerances_are_validated_and_an_edited_copy_is_used(tmp_path, capsys):
+    edited = yaml.safe_load(DEFAULT_PATH.read_text())
+    edited["pattern"]["coverage_points"] = 15
+    path = tmp_path / "mine.yaml"
+    path.write_text(yaml.safe_dump(edited))
+    assert load_tolerances(path).pattern.coverage_points == 15.0
+    for change, message in (
+        (lambda t: t["pattern"].update(coverage_pts=1), "unknown key 'pattern.coverage_pts' (known: coverage_points, "),
+        (lambda t: t["labels"].pop("max_speed_mps"), "missing key 'labels.max_speed_mps'"),
+        (lambda t: t["dataset"].update(dropout_points=-1), "'dataset.dropout_points' must be a number >= 0 (got -1)"),
+        (lambda t: t.update(extra={}), "unknown key 'extra' (known: pattern, dataset, labels)"),
+    ):
+        bad = yaml.safe_load(DEFAULT_PATH.read_text())
+        change(bad)
+        path.write_text(yaml.safe_dump(bad))
+        assert main(["qa", "--pattern", "mid40-risley", "-o", str(tmp_path / "out"), "--tolerances", str(path)]) == 2
+        stderr = capsys.readouterr().err
+        assert stderr.count("\n") == 1 and message in stderr, stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_bad_input_is_one_line(tmp_path):
+    result = run_simgen("qa", "--pattern", "mid41", "-o", tmp_path / "out")
+    assert result.returncode == 2 and result.stderr.startswith("simgen qa: error: unknown sensor 'mid41'")
+    result = run_simgen("qa", tmp_path / "nothing", "-o", tmp_path / "out")
+    assert result.returncode == 2 and result.stderr == f"simgen qa: error: {tmp_path / 'nothing'}: no such dataset directory\n"
+
+
+def test_a_head_without_an_official_file_is_reported_not_failed():
+    head = HeadSpec("rose", fov_deg=50.0)
+    qa = head_qa("wide head 0", head, load_tolerances().pattern)
+    assert [(c.name, c.verdict, c.measured) for c in qa.checks] == [
+        ("official pattern", "n/a", "Livox ships no file for a 50 deg head")]
