@@ -1,0 +1,203 @@
+"""The detector's config file (one per model, as OpenPCDet's): data, model, loss, training, inference.
+
+Validated by pydantic: an unknown key, a wrong type or range is one `UserError` line naming the
+field. Lengths in metres, angles in radians.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from simgen.errors import UserError
+
+TRACKLET_FRAMES = 3  # t-2, t-1, t
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class AugmentConfig(_Strict):
+    """Global augmentation, the same for the three frames of a sample (training only)."""
+
+    rotation_rad: float = Field(0.785, ge=0.0, le=3.1416)  # uniform in [-r, r] about z through the origin
+    flip_x: bool = True  # mirror x -> -x with probability 1/2 (keeps a touchline sensor's view)
+    scale: tuple[float, float] = (0.95, 1.05)  # uniform factor range
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "AugmentConfig":
+        if not 0.0 < self.scale[0] <= self.scale[1]:
+            raise ValueError("'data.augment.scale': needs 0 < low <= high")
+        return self
+
+
+class DataConfig(_Strict):
+    point_range_m: tuple[float, float, float, float, float, float] = (-40.0, -40.0, -0.1, 40.0, 40.0, 2.5)
+    pillar_size_m: float = Field(0.25, gt=0.0)
+    classes: tuple[str, ...] = ("Pedestrian", "Official")  # label classes detected, as one class
+    augment: AugmentConfig = AugmentConfig()
+
+    @model_validator(mode="after")
+    def _grid(self) -> "DataConfig":
+        x0, y0, z0, x1, y1, z1 = self.point_range_m
+        if not (x0 < x1 and y0 < y1 and z0 < z1):
+            raise ValueError("'data.point_range_m': needs x0 < x1, y0 < y1, z0 < z1")
+        for span in (x1 - x0, y1 - y0):
+            cells = span / self.pillar_size_m
+            if abs(cells - round(cells)) > 1e-6:
+                raise ValueError("'data.point_range_m': x and y spans must be whole multiples of pillar_size_m")
+        return self
+
+    @property
+    def grid_size(self) -> tuple[int, int]:
+        """(rows along y, columns along x) of the pillar grid."""
+        x0, y0, _, x1, y1, _ = self.point_range_m
+        return round((y1 - y0) / self.pillar_size_m), round((x1 - x0) / self.pillar_size_m)
+
+
+class BackboneConfig(_Strict):
+    """PointPillars' top-down blocks (pedestrian: 4, 6, 6 layers) and their upsampling to one size."""
+
+    layers: tuple[int, int, int] = (4, 6, 6)
+    strides: tuple[int, int, int] = (2, 2, 2)
+    channels: tuple[int, int, int] = (8, 16, 32)
+    upsample_strides: tuple[int, int, int] = (1, 2, 4)
+    upsample_channels: tuple[int, int, int] = (16, 16, 16)
+
+    @property
+    def output_stride(self) -> int:
+        """Pillars per output cell along each axis."""
+        return self.strides[0] // self.upsample_strides[0]
+
+    @model_validator(mode="after")
+    def _common_size(self) -> "BackboneConfig":
+        total, sizes = 1, []
+        for stride, up in zip(self.strides, self.upsample_strides):
+            total *= stride
+            sizes.append(total / up)
+        if len(set(sizes)) != 1 or sizes[0] != int(sizes[0]):
+            raise ValueError("'model.backbone': every block must upsample to the same size (strides / upsample_strides)")
+        return self
+
+
+class AnchorConfig(_Strict):
+    size_m: tuple[float, float, float] = (0.8, 0.8, 1.7)  # length, width, height
+    z_m: float = 0.85  # centre height
+    yaws_rad: tuple[float, ...] = (0.0, 1.5708)  # two anchors per cell, 0 and 90 degrees
+    match_iou: float = Field(0.5, gt=0.0, le=1.0)  # BEV IoU with the box at t: positive at or above
+    unmatch_iou: float = Field(0.35, ge=0.0, le=1.0)  # negative below; ignored between
+
+
+class ModelConfig(_Strict):
+    fusion: Literal["single", "early", "late"]
+    tracklet_boxes: Literal[1, 3] = 1  # boxes regressed per anchor: t only, or t-2, t-1, t
+    pillar_channels: int = Field(16, ge=1)
+    backbone: BackboneConfig = BackboneConfig()
+    anchor: AnchorConfig = AnchorConfig()
+    dir_offset_rad: float = 0.78539
+
+    @property
+    def input_frames(self) -> int:
+        """Point clouds the model reads: 1 for `single`, 3 otherwise."""
+        return 1 if self.fusion == "single" else TRACKLET_FRAMES
+
+    @property
+    def canvases(self) -> int:
+        """Pseudo-images per sample: one per frame for `late`, one otherwise."""
+        return TRACKLET_FRAMES if self.fusion == "late" else 1
+
+    @model_validator(mode="after")
+    def _boxes(self) -> "ModelConfig":
+        if self.fusion == "single" and self.tracklet_boxes != 1:
+            raise ValueError("'model.tracklet_boxes': a single-frame model regresses 1 box")
+        return self
+
+
+class LossConfig(_Strict):
+    """Paper eq. 2: alpha L_cls + sum_i lambda_i L_loc^i + beta L_dir."""
+
+    cls_weight: float = 1.0  # alpha
+    loc_weights: tuple[float, ...] = (2.0, 2.0, 2.0)  # lambda for t-2, t-1, t (the last ones used)
+    dir_weight: float = 0.2  # beta
+    focal_alpha: float = 0.25
+    focal_gamma: float = 2.0
+    smooth_l1_beta: float = 1.0 / 9.0
+
+
+class TrainConfig(_Strict):
+    iterations: int = Field(2000, ge=1)
+    batch_size: int = Field(2, ge=1)
+    lr: float = Field(0.003, gt=0.0)  # peak of the one-cycle schedule
+    weight_decay: float = Field(0.01, ge=0.0)
+    grad_clip: float = Field(10.0, gt=0.0)
+    workers: int = Field(2, ge=0)
+    checkpoint_every: int = Field(500, ge=1)
+    log_every: int = Field(10, ge=1)
+
+
+class InferConfig(_Strict):
+    score_threshold: float = Field(0.1, ge=0.0, le=1.0)
+    pre_nms: int = Field(500, ge=1)
+    nms_iou: float = Field(0.2, gt=0.0, le=1.0)  # BEV IoU of the boxes at t
+    max_detections: int = Field(100, ge=1)
+
+
+class DetectorConfig(_Strict):
+    name: str
+    seed: int = 0
+    data: DataConfig = DataConfig()
+    model: ModelConfig
+    loss: LossConfig = LossConfig()
+    train: TrainConfig = TrainConfig()
+    infer: InferConfig = InferConfig()
+
+    @model_validator(mode="after")
+    def _weights(self) -> "DetectorConfig":
+        if len(self.loss.loc_weights) < self.model.tracklet_boxes:
+            raise ValueError(f"'loss.loc_weights': needs {self.model.tracklet_boxes} weights")
+        cells = self.data.grid_size
+        stride = self.model.backbone.strides[0] * self.model.backbone.strides[1] * self.model.backbone.strides[2]
+        if any(c % stride for c in cells):
+            raise ValueError(f"'model.backbone.strides': the {cells[0]}x{cells[1]} pillar grid must divide by {stride}")
+        return self
+
+
+def _one_line(error: ValidationError) -> str:
+    first = error.errors()[0]
+    field = ".".join(str(part) for part in first["loc"])
+    if not field:
+        return first["msg"].removeprefix("Value error, ")
+    if first["type"] == "extra_forbidden":
+        return f"unknown key '{field}'"
+    if first["type"] == "missing":
+        return f"missing key '{field}'"
+    return f"'{field}': {first['msg']} (got {first.get('input')!r})"
+
+
+def parse_config(data: object, source: str = "config") -> DetectorConfig:
+    """Validate a parsed config; raise `UserError` naming the first bad field."""
+    if not isinstance(data, dict):
+        raise UserError(f"{source}: expected a mapping of keys at the top level")
+    try:
+        return DetectorConfig.model_validate(data)
+    except ValidationError as error:
+        more = f" (and {error.error_count() - 1} more)" if error.error_count() > 1 else ""
+        raise UserError(f"{source}: {_one_line(error)}{more}") from None
+
+
+def load_config(path: str | Path) -> DetectorConfig:
+    """Read and validate a detector config YAML file."""
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise UserError(f"{path}: no such config file") from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise UserError(f"{path}: cannot read ({error.__class__.__name__})") from None
+    except yaml.YAMLError as error:
+        raise UserError(f"{path}: malformed YAML ({getattr(error, 'problem', None) or error})") from None
+    return parse_config(data, str(path))
