@@ -1,0 +1,124 @@
+"""train.data and train.models.anchors: track matching, one augmentation for all frames, crop, pillars, targets."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+from detector_support import smoke_dataset, tiny_config
+
+import simgen.datasets
+from train.data import Sample, augment, crop, load_sample, model_points, pillar_cells
+from train.models.anchors import AnchorGrid
+from train.models.box_coder import apply_direction, decode, direction_bin, encode
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory):
+    return simgen.datasets.open(smoke_dataset(tmp_path_factory.getbasetemp(), 6))
+
+
+def test_tracklet_boxes_are_matched_by_track_id(dataset):
+    clip = dataset.clips[0]
+    sample = load_sample(dataset, clip, 4, tiny_config("late"))
+    assert sample.boxes.shape == (len(sample.track_id), 3, 7) and sample.box_mask.all()
+    assert len(sample.points) == 3
+    for k, index in enumerate((2, 3, 4)):
+        frame = dataset.frame(clip, index)
+        by_id = dict(zip(frame.track_id.tolist(), frame.boxes))
+        for track, box in zip(sample.track_id, sample.boxes[:, k]):
+            np.testing.assert_array_equal(box, by_id[int(track)])
+    single = load_sample(dataset, clip, 4, tiny_config("single"))
+    assert len(single.points) == 1
+    np.testing.assert_array_equal(single.points[0][:, :3], dataset.frame(clip, 4).points_m)
+
+
+def _sample() -> Sample:
+    rng = np.random.default_rng(1)
+    boxes = np.zeros((2, 3, 7), np.float32)
+    boxes[:, :, :3] = rng.uniform(-5, 5, (2, 3, 3))
+    boxes[:, :, 3:6] = [0.8, 0.6, 1.8]
+    boxes[:, :, 6] = rng.uniform(-3, 3, (2, 3))
+    points = []
+    for k in range(3):  # points inside each object's box at that frame, in box-local coordinates
+        local = rng.uniform(-0.4, 0.4, (2, 20, 3)) * [0.8 / 0.8, 0.6 / 0.8, 1.8 / 0.8]
+        yaw = boxes[:, k, 6][:, None]
+        xy = np.stack([np.cos(yaw) * local[..., 0] - np.sin(yaw) * local[..., 1],
+                       np.sin(yaw) * local[..., 0] + np.cos(yaw) * local[..., 1]], -1)
+        xyz = np.concatenate([xy, local[..., 2:]], -1) + boxes[:, k, None, :3]
+        points.append(np.column_stack([xyz.reshape(-1, 3), np.full(40, 0.5)]).astype(np.float32))
+    return Sample("c", 2, tuple(points), boxes, np.ones((2, 3), bool), np.arange(2))
+
+
+def _local(points: np.ndarray, box: np.ndarray) -> np.ndarray:
+    d = points[:, :2] - box[:2]
+    c, s = math.cos(box[6]), math.sin(box[6])
+    return np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], points[:, 2] - box[2]])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_augmentation_moves_every_frame_and_box_together(seed):
+    from train.config import AugmentConfig
+
+    before = _sample()
+    after = augment(before, AugmentConfig(rotation_rad=3.0, flip_x=True, scale=(0.9, 1.1)), np.random.default_rng(seed))
+    scale = after.boxes[0, 0, 3] / before.boxes[0, 0, 3]
+    for k in range(3):
+        for g in range(2):
+            rows = slice(20 * g, 20 * g + 20)
+            old, new = _local(before.points[k][rows], before.boxes[g, k]), _local(after.points[k][rows], after.boxes[g, k])
+            # A point's place in its box is kept up to the scale, and up to the mirror across the box's axis.
+            np.testing.assert_allclose(np.abs(new), np.abs(old) * scale, atol=1e-4)
+    np.testing.assert_array_equal(after.points[0][:, 3], before.points[0][:, 3])
+
+
+def test_crop_keeps_points_and_objects_in_range():
+    sample = _sample()
+    cropped = crop(sample, (-1.0, -1.0, -0.1, 10.0, 10.0, 2.5))
+    for p in cropped.points:
+        assert ((p[:, :2] >= -1) & (p[:, :2] < 10)).all() and ((p[:, 2] >= -0.1) & (p[:, 2] < 2.5)).all()
+    inside = ((sample.boxes[:, -1, :2] >= -1) & (sample.boxes[:, -1, :2] < 10)).all(1)
+    np.testing.assert_array_equal(cropped.track_id, sample.track_id[inside])
+
+
+def test_pillar_cells_and_early_time_channel():
+    config = tiny_config("early")  # x from -16, y from -24, 0.25 m pillars, 128 columns
+    xyz = np.array([[-16.0, -24.0, 0.0], [-15.76, -24.0, 0.0], [-16.0, -23.74, 1.0], [15.99, 7.99, 0.0]], np.float32)
+    assert pillar_cells(xyz, config).tolist() == [0, 0, 128 + 0, 127 * 128 + 127]
+    features, canvas = model_points(_sample(), config)
+    assert features.shape == (120, 5) and (canvas == 0).all()
+    np.testing.assert_array_equal(np.unique(features[:, 4]), [-2.0, -1.0, 0.0])
+    _, late_canvas = model_points(_sample(), tiny_config("late"))
+    np.testing.assert_array_equal(np.bincount(late_canvas), [40, 40, 40])
+
+
+def test_box_coder_round_trip_and_direction():
+    rng = np.random.default_rng(2)
+    anchors = np.column_stack([rng.uniform(-5, 5, (6, 3)), np.full((6, 3), [0.8, 0.8, 1.7]), rng.choice([0, np.pi / 2], 6)]).astype(np.float32)
+    boxes = np.column_stack([rng.uniform(-5, 5, (18, 3)), rng.uniform(0.4, 1.2, (18, 3)), rng.uniform(-3, 3, 18)]).reshape(6, 3, 7).astype(np.float32)
+    back = decode(torch.from_numpy(anchors), torch.from_numpy(encode(anchors, boxes))).numpy()
+    np.testing.assert_allclose(back, boxes, atol=1e-5)
+    offset = 0.78539
+    bins = direction_bin(boxes[:, -1, 6], offset)
+    ambiguous = torch.from_numpy(boxes[:, -1, 6] + np.pi * rng.integers(-2, 3, 6))  # the regression knows yaw mod pi
+    fixed = apply_direction(ambiguous, torch.from_numpy(bins), offset).numpy()
+    np.testing.assert_allclose(np.cos(fixed), np.cos(boxes[:, -1, 6]), atol=1e-5)
+    np.testing.assert_allclose(np.sin(fixed), np.sin(boxes[:, -1, 6]), atol=1e-5)
+
+
+def test_anchor_targets():
+    config = tiny_config("late")
+    grid = AnchorGrid(config)
+    assert len(grid) == 64 * 64 * 2 and grid.cell_m == 0.5
+    anchor = grid.anchors[1000]
+    tracklet = np.stack([anchor + [-0.2, 0, 0, 0, 0, 0, 0], anchor + [-0.1, 0, 0, 0, 0, 0, 0], anchor])[None]
+    nearby = np.stack([tracklet[0, :, :] + [3, 3, 0, 0, 0, 0, 0]])  # a second object, 4 m away
+    targets = grid.assign(np.concatenate([tracklet, nearby]).astype(np.float32), np.ones((2, 3), bool))
+    assert targets.labels[1000] == 1 and 1000 in targets.positives
+    assert set(np.unique(targets.labels)) <= {-1, 0, 1} and (targets.labels == 1).sum() == len(targets.positives)
+    row = targets.positives.tolist().index(1000)
+    back = decode(torch.from_numpy(grid.anchors[targets.positives]), torch.from_numpy(targets.deltas)).numpy()
+    np.testing.assert_allclose(back[row], tracklet[0], atol=1e-5)
+    # Far from both objects every anchor is a negative.
+    far = np.linalg.norm(grid.anchors[:, :2] - anchor[:2], axis=1) > 8
+    assert (targets.labels[far] == 0).all()

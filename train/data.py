@@ -1,0 +1,226 @@
+"""Training and evaluation samples: three consecutive frames read through simgen.datasets.
+
+A sample at frame t holds the point clouds the model reads (t alone for `single`; t-2, t-1, t
+otherwise) and, for every object of the configured classes whose centre at t is in range, its
+boxes at t-2, t-1 and t matched by track id. Augmentation (flip, rotation, scale) is one global
+transform for all three frames; the crop follows it. Points become pillar indices here, in the
+loader's workers; the model turns them into pillar features.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, replace
+
+import numpy as np
+import torch
+from numpy.typing import NDArray
+
+import simgen.datasets
+from simgen.errors import UserError
+from train.config import TRACKLET_FRAMES, AugmentConfig, DetectorConfig
+from train.models.anchors import AnchorGrid, Targets
+
+POINT_FEATURES = 4  # x, y, z metres, intensity 0-1 (early fusion adds the frame offset)
+
+
+@dataclass(frozen=True)
+class Sample:
+    """Frame t of a clip with the frames before it; pitch frame, metres, radians."""
+
+    clip: str
+    index: int  # frame t
+    points: tuple[NDArray[np.float32], ...]  # per input frame, oldest first: (P, 4) x, y, z, intensity
+    boxes: NDArray[np.float32]  # (G, 3, 7) each object's boxes at t-2, t-1, t
+    box_mask: NDArray[np.bool_]  # (G, 3) False where the track has no label at that frame
+    track_id: NDArray[np.int64]  # (G,)
+
+
+def sample_keys(dataset: simgen.datasets.Dataset, split: str | None) -> list[tuple[str, int]]:
+    """(clip, t) for every frame with two before it, in the clips of `split` (None: all)."""
+    clips = [c for c in dataset.clips if split is None or dataset.split(c) == split]
+    if not clips:
+        raise UserError(f"{dataset.root}: no clips in the {split!r} split")
+    return [(clip, t) for clip in clips for t in range(TRACKLET_FRAMES - 1, dataset.num_frames(clip))]
+
+
+def load_sample(dataset: simgen.datasets.Dataset, clip: str, index: int, config: DetectorConfig) -> Sample:
+    """Read frames t-2..t and match the boxes of the objects at t by track id."""
+    frames = dataset.sequence(clip, index, TRACKLET_FRAMES)
+    if any(f.track_id is None for f in frames):
+        raise UserError(f"{dataset.root}: the detector needs track ids (write the dataset as parquet or kitti_tracking)")
+    last = frames[-1]
+    keep = np.isin(last.class_name, config.data.classes)
+    track_id = last.track_id[keep].astype(np.int64)
+    boxes = np.repeat(last.boxes[keep][:, None], TRACKLET_FRAMES, axis=1)
+    mask = np.ones((len(track_id), TRACKLET_FRAMES), bool)
+    for k, frame in enumerate(frames[:-1]):
+        order = np.argsort(frame.track_id)
+        at = np.searchsorted(frame.track_id, track_id, sorter=order).clip(0, max(len(order) - 1, 0))
+        found = (frame.track_id[order[at]] == track_id) if len(order) else np.zeros(len(track_id), bool)
+        boxes[found, k] = frame.boxes[order[at[found]]]
+        mask[:, k] = found
+    clouds = frames[-config.model.input_frames:]
+    points = tuple(
+        np.column_stack([f.points_m, f.intensity.astype(np.float32) / 255.0]).astype(np.float32) for f in clouds
+    )
+    return Sample(clip, index, points, boxes.astype(np.float32), mask, track_id)
+
+
+def augment(sample: Sample, config: AugmentConfig, rng: np.random.Generator) -> Sample:
+    """One random flip (x -> -x), rotation about z and scale, applied to every frame and box."""
+    flip = config.flip_x and rng.random() < 0.5
+    angle = rng.uniform(-config.rotation_rad, config.rotation_rad)
+    scale = rng.uniform(*config.scale)
+    cos, sin = math.cos(angle), math.sin(angle)
+    turn = np.array([[cos, -sin], [sin, cos]], np.float32)
+
+    def move(xyz: NDArray[np.float32]) -> NDArray[np.float32]:
+        out = xyz.copy()
+        if flip:
+            out[..., 0] = -out[..., 0]
+        out[..., :2] = out[..., :2] @ turn.T
+        return out * np.float32(scale)
+
+    points = tuple(np.concatenate([move(p[:, :3]), p[:, 3:]], axis=1) for p in sample.points)
+    boxes = sample.boxes.copy()
+    boxes[..., :3] = move(boxes[..., :3])
+    boxes[..., 3:6] *= np.float32(scale)
+    yaw = np.pi - boxes[..., 6] if flip else boxes[..., 6]
+    boxes[..., 6] = np.mod(yaw + angle + np.pi, 2 * np.pi) - np.pi
+    return replace(sample, points=points, boxes=boxes)
+
+
+def crop(sample: Sample, point_range_m: tuple[float, ...]) -> Sample:
+    """Points inside the range (upper bounds excluded) and objects whose centre at t is inside in x, y."""
+    low, high = np.asarray(point_range_m[:3], np.float32), np.asarray(point_range_m[3:], np.float32)
+    points = tuple(p[np.all((p[:, :3] >= low) & (p[:, :3] < high), axis=1)] for p in sample.points)
+    centre = sample.boxes[:, -1, :2]
+    inside = np.all((centre >= low[:2]) & (centre < high[:2]), axis=1)
+    return replace(sample, points=points, boxes=sample.boxes[inside], box_mask=sample.box_mask[inside],
+                   track_id=sample.track_id[inside])
+
+
+def model_points(sample: Sample, config: DetectorConfig) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
+    """Point features (P, F) and each point's canvas (P,): early fusion merges the sweeps with a time channel."""
+    if config.model.fusion != "early":
+        canvas = np.concatenate([np.full(len(p), k, np.int64) for k, p in enumerate(sample.points)])
+        return np.concatenate(sample.points), canvas
+    offsets = np.arange(1 - len(sample.points), 1, dtype=np.float32)  # frames before t: -2, -1, 0
+    merged = [np.column_stack([p, np.full(len(p), dt, np.float32)]) for p, dt in zip(sample.points, offsets)]
+    return np.concatenate(merged), np.zeros(sum(len(p) for p in merged), np.int64)
+
+
+def pillar_cells(xyz_m: NDArray[np.float32], config: DetectorConfig) -> NDArray[np.int64]:
+    """(P,) flat index row * columns + column of each (cropped) point's pillar."""
+    rows, cols = config.data.grid_size
+    x0, y0 = config.data.point_range_m[:2]
+    size = config.data.pillar_size_m
+    col = np.floor((xyz_m[:, 0] - x0) / size).astype(np.int64).clip(0, cols - 1)
+    row = np.floor((xyz_m[:, 1] - y0) / size).astype(np.int64).clip(0, rows - 1)
+    return row * cols + col
+
+
+@dataclass(frozen=True)
+class Encoded:
+    """A sample as the model and loss read it (numpy, one sample)."""
+
+    sample: Sample  # after augmentation and crop
+    features: NDArray[np.float32]  # (P, F)
+    cells: NDArray[np.int64]  # (P,) flat pillar index within the point's canvas
+    canvas: NDArray[np.int64]  # (P,) which input canvas (frame) the point belongs to
+    targets: Targets
+
+
+def encode_sample(sample: Sample, config: DetectorConfig, grid: AnchorGrid) -> Encoded:
+    features, canvas = model_points(sample, config)
+    return Encoded(sample, features, pillar_cells(features[:, :3], config), canvas,
+                   grid.assign(sample.boxes, sample.box_mask))
+
+
+@dataclass(frozen=True)
+class Batch:
+    """Samples collated for the model: torch tensors, points of all samples concatenated."""
+
+    features: torch.Tensor  # (P, F) float32
+    pillar: torch.Tensor  # (P,) int64 flat index into (B * canvases * rows * columns)
+    batch_size: int
+    labels: torch.Tensor  # (B, N_a) int8
+    positives: torch.Tensor  # (n,) int64 flat index into (B * N_a)
+    deltas: torch.Tensor  # (n, K, 7)
+    box_mask: torch.Tensor  # (n, K) bool
+    direction: torch.Tensor  # (n,) int64
+    samples: tuple[Sample, ...]
+
+    def to(self, device: torch.device) -> "Batch":
+        moved = {k: getattr(self, k).to(device) for k in ("features", "pillar", "labels", "positives", "deltas", "box_mask", "direction")}
+        return replace(self, **moved)
+
+
+def collate(items: list[Encoded], canvases: int, grid_cells: int, anchors: int) -> Batch:
+    """Concatenate samples; pillar and anchor indices get per-sample offsets."""
+    pillar = [(b * canvases + e.canvas) * grid_cells + e.cells for b, e in enumerate(items)]
+    positives = [b * anchors + e.targets.positives for b, e in enumerate(items)]
+    return Batch(
+        features=torch.from_numpy(np.concatenate([e.features for e in items])),
+        pillar=torch.from_numpy(np.concatenate(pillar)),
+        batch_size=len(items),
+        labels=torch.from_numpy(np.stack([e.targets.labels for e in items])),
+        positives=torch.from_numpy(np.concatenate(positives)),
+        deltas=torch.from_numpy(np.concatenate([e.targets.deltas for e in items])),
+        box_mask=torch.from_numpy(np.concatenate([e.targets.box_mask for e in items])),
+        direction=torch.from_numpy(np.concatenate([e.targets.direction for e in items])),
+        samples=tuple(e.sample for e in items),
+    )
+
+
+class SampleSet(torch.utils.data.Dataset):
+    """Encoded samples of a dataset split, in order; with `draws`, a seeded stream of augmented ones.
+
+    Training draw k takes sample perm_e[k mod n] with e = k div n (a seeded permutation per epoch)
+    and augments it with the generator seeded by (seed, k), so runs repeat whatever the workers.
+    """
+
+    def __init__(self, path: str, split: str | None, config: DetectorConfig, draws: int | None = None) -> None:
+        self.path, self.config, self.draws = path, config, draws
+        self.keys = sample_keys(simgen.datasets.open(path), split)
+        self.grid = AnchorGrid(config)
+        self._dataset: simgen.datasets.Dataset | None = None  # opened again in each worker process
+
+    def __len__(self) -> int:
+        return self.draws if self.draws is not None else len(self.keys)
+
+    def key(self, item: int) -> tuple[str, int]:
+        if self.draws is None:
+            return self.keys[item]
+        epoch, within = divmod(item, len(self.keys))
+        return self.keys[np.random.default_rng([self.config.seed, epoch]).permutation(len(self.keys))[within]]
+
+    def __getitem__(self, item: int) -> Encoded:
+        if self._dataset is None:
+            self._dataset = simgen.datasets.open(self.path)
+        sample = load_sample(self._dataset, *self.key(item), self.config)
+        if self.draws is not None:
+            sample = augment(sample, self.config.data.augment, np.random.default_rng([self.config.seed, 1, item]))
+        return encode_sample(crop(sample, self.config.data.point_range_m), self.config, self.grid)
+
+
+def loader(samples: SampleSet, batch_size: int, workers: int) -> Iterator[Batch]:
+    """Batches in order, built by `workers` processes ahead of the model (0: in this process)."""
+    rows, cols = samples.config.data.grid_size
+    gather = functools.partial(
+        collate, canvases=samples.config.model.canvases, grid_cells=rows * cols, anchors=len(samples.grid)
+    )
+    return iter(
+        torch.utils.data.DataLoader(
+            samples,
+            batch_size=batch_size,
+            shuffle=False,
+            num_workers=workers,
+            collate_fn=gather,
+            prefetch_factor=4 if workers else None,
+            persistent_workers=False,
+        )
+    )

@@ -1,0 +1,1 @@
+"""The PointPillars tracklet detector: pillar features, backbone, temporal fusion, SSD head."""

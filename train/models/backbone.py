@@ -1,0 +1,42 @@
+"""PointPillars' 2D backbone: three top-down conv blocks, each upsampled to one common size."""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from train.config import BackboneConfig
+
+
+def _conv(inputs: int, outputs: int, stride: int = 1) -> list[nn.Module]:
+    return [nn.Conv2d(inputs, outputs, 3, stride, 1, bias=False), nn.BatchNorm2d(outputs, eps=1e-3, momentum=0.1), nn.ReLU()]
+
+
+def _up(inputs: int, outputs: int, stride: int) -> nn.Sequential:
+    conv = nn.ConvTranspose2d(inputs, outputs, stride, stride, bias=False) if stride > 1 else nn.Conv2d(inputs, outputs, 1, bias=False)
+    return nn.Sequential(conv, nn.BatchNorm2d(outputs, eps=1e-3, momentum=0.1), nn.ReLU())
+
+
+class Backbone(nn.Module):
+    """(N, C_in, rows, columns) -> three levels (N, upsample_channels[i], rows / s, columns / s)."""
+
+    def __init__(self, config: BackboneConfig, inputs: int) -> None:
+        super().__init__()
+        blocks = []
+        for layers, stride, channels in zip(config.layers, config.strides, config.channels):
+            modules = _conv(inputs, channels, stride)
+            for _ in range(layers - 1):
+                modules += _conv(channels, channels)
+            blocks.append(nn.Sequential(*modules))
+            inputs = channels
+        self.blocks = nn.ModuleList(blocks)
+        self.ups = nn.ModuleList(
+            _up(c, u, s) for c, u, s in zip(config.channels, config.upsample_channels, config.upsample_strides)
+        )
+
+    def forward(self, image: torch.Tensor) -> list[torch.Tensor]:
+        levels = []
+        for block, up in zip(self.blocks, self.ups):
+            image = block(image)
+            levels.append(up(image))
+        return levels

@@ -1,0 +1,48 @@
+"""Pillar feature net (PointPillars' simplified PointNet) and the scatter to pseudo-images.
+
+Each point is decorated with its offsets from the mean of its pillar's points and from the
+pillar's centre, goes through Linear + BatchNorm + ReLU, and every pillar keeps the per-channel
+maximum over its points. There is no cap on points or pillars: the scatter is exact.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from train.config import DetectorConfig
+
+
+class PillarFeatureNet(nn.Module):
+    """Points (P, F) with flat pillar indices -> pseudo-images (canvases, C, rows, columns)."""
+
+    def __init__(self, config: DetectorConfig, point_features: int) -> None:
+        super().__init__()
+        data = config.data
+        self.rows, self.cols = data.grid_size
+        self.pillar_m = data.pillar_size_m
+        x0, y0, z0, _, _, z1 = data.point_range_m
+        self.register_buffer("origin", torch.tensor([x0, y0, 0.5 * (z0 + z1)]), persistent=False)
+        channels = config.model.pillar_channels
+        self.linear = nn.Linear(point_features + 6, channels, bias=False)
+        self.norm = nn.BatchNorm1d(channels, eps=1e-3, momentum=0.1)
+        self.channels = channels
+
+    def forward(self, features: torch.Tensor, pillar: torch.Tensor, canvases: int) -> torch.Tensor:
+        cells = self.rows * self.cols
+        unique, inverse = torch.unique(pillar, return_inverse=True)
+        counts = torch.zeros(len(unique), device=features.device).index_add_(0, inverse, torch.ones_like(inverse, dtype=features.dtype))
+        sums = torch.zeros(len(unique), 3, device=features.device).index_add_(0, inverse, features[:, :3])
+        mean = sums / counts[:, None]
+        within = pillar % cells
+        centre = torch.stack(
+            [(within % self.cols).to(features.dtype) + 0.5, (within // self.cols).to(features.dtype) + 0.5], dim=1
+        ) * self.pillar_m
+        centre = torch.cat([centre, torch.zeros_like(centre[:, :1])], dim=1) + self.origin
+        decorated = torch.cat([features, features[:, :3] - mean[inverse], features[:, :3] - centre], dim=1)
+        point = torch.relu(self.norm(self.linear(decorated)))
+        pooled = torch.zeros(len(unique), self.channels, device=features.device, dtype=point.dtype)
+        pooled = pooled.scatter_reduce(0, inverse[:, None].expand(-1, self.channels), point, reduce="amax", include_self=True)
+        canvas = torch.zeros(canvases * cells, self.channels, device=features.device, dtype=point.dtype)
+        canvas = canvas.index_copy(0, unique, pooled)
+        return canvas.view(canvases, self.rows, self.cols, self.channels).permute(0, 3, 1, 2).contiguous()
