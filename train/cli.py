@@ -1,30 +1,132 @@
-"""`simgen-train`: detection and tracking on simgen datasets.
+"""`simgen-train fit | eval | detect`: the paper's PointPillars tracklet detector on simgen datasets.
 
-The detector, tracker and metrics land here as sub-commands (`fit`, `eval`, `detect`); until then
-this entry point only explains itself.
+Datasets are read only through simgen.datasets. Bad input (a missing dataset or config, a file
+that is not our checkpoint) is one line on stderr and exit code 2.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
+
+import torch
+
+import simgen.datasets
+from simgen.errors import UserError
+from train.checkpoint import load_checkpoint
+from train.config import load_config
+from train.evaluate import detect, evaluate, format_ap_table, write_ap_csv
+from train.fit import fit
+from train.models.detector import Detector
+
+SPLITS = ("train", "val", "all")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but usage errors are one line (argparse already exits 2)."""
+
+    def error(self, message: str) -> None:  # noqa: D102 - argparse API
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _device(name: str) -> torch.device:
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if name == "cuda" and not torch.cuda.is_available():
+        raise UserError("--device cuda: no CUDA device is available")
+    return torch.device(name)
+
+
+def _dataset(path: str) -> str:
+    simgen.datasets.open(path)  # a missing or foreign folder fails here, in one line
+    return path
+
+
+def _split(name: str) -> str | None:
+    return None if name == "all" else name
+
+
+def _model(checkpoint_path: str) -> tuple[Detector, object, int]:
+    checkpoint = load_checkpoint(checkpoint_path)
+    model = Detector(checkpoint.config)
+    try:
+        model.load_state_dict(checkpoint.model)
+    except RuntimeError:
+        raise UserError(f"{checkpoint_path}: its weights do not fit its config") from None
+    return model, checkpoint.config, checkpoint.iteration
+
+
+def _fit(args: argparse.Namespace) -> int:
+    config = load_config(args.config)
+    changes = {k: v for k, v in (("iterations", args.iterations), ("workers", args.workers)) if v is not None}
+    if changes:
+        config = config.model_copy(update={"train": config.train.model_copy(update=changes)})
+    result = fit(config, _dataset(args.dataset), Path(args.output), _device(args.device), not args.quiet)
+    print(f"{result.checkpoint}: {result.iterations} iterations, {result.samples_per_s:.2f} samples/s")
+    return 0
+
+
+def _eval(args: argparse.Namespace) -> int:
+    model, config, iteration = _model(args.checkpoint)
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    result = evaluate(model, config, _dataset(args.dataset), _split(args.split), _device(args.device), not args.quiet)
+    write_ap_csv(out / "ap.csv", result.rows, {"model": config.name, "iteration": str(iteration), "split": args.split})
+    print(format_ap_table(result.rows))
+    print(f"{out / 'ap.csv'}: {config.name} at iteration {iteration}, {result.frames_per_s:.2f} frames/s")
+    return 0
+
+
+def _detect(args: argparse.Namespace) -> int:
+    model, config, _ = _model(args.checkpoint)
+    paths = detect(model, config, _dataset(args.dataset), _split(args.split), _device(args.device), Path(args.output), not args.quiet)
+    print(f"{Path(args.output)}: tracklets of {len(paths)} clips in tracklets/, KITTI labels in kitti/")
+    return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="simgen-train",
-        description="Train and evaluate the paper's PointPillars tracklet detector and 3D DIoU tracker "
-        "on datasets written by `simgen generate`, read through simgen.datasets.",
+        description="Train and evaluate the paper's PointPillars tracklet detector on datasets written by "
+        "`simgen generate`, read through simgen.datasets.",
     )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+
+    def common(p: argparse.ArgumentParser) -> None:
+        p.add_argument("--dataset", required=True, help="a dataset folder written by `simgen generate`")
+        p.add_argument("-o", "--output", required=True, help="output folder (created)")
+        p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto", help="default: CUDA when present")
+        p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    p = sub.add_parser("fit", help="train a detector on the dataset's train clips")
+    p.add_argument("config", help="detector config YAML (train/configs/single|early|late.yaml)")
+    common(p)
+    p.add_argument("--iterations", type=int, help="override train.iterations")
+    p.add_argument("--workers", type=int, help="override train.workers (loader processes)")
+    p.set_defaults(func=_fit)
+
+    for name, func, text in (("eval", _eval, "detection AP (BEV, 3D; IoU 0.5; R40 and R11) into ap.csv"),
+                             ("detect", _detect, "tracklet files and KITTI labels per frame")):
+        p = sub.add_parser(name, help=text)
+        p.add_argument("checkpoint", help="checkpoint.pt written by `simgen-train fit`")
+        common(p)
+        p.add_argument("--split", choices=SPLITS, default="val", help="clips to run on (default: val)")
+        p.set_defaults(func=func)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    parser.parse_args(argv)
-    parser.print_help(sys.stderr)
-    print("simgen-train: error: no training commands are available in this version yet", file=sys.stderr)
-    return 2
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except UserError as error:
+        print(f"simgen-train {args.command}: error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"simgen-train {args.command}: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

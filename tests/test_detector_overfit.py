@@ -1,0 +1,27 @@
+"""The late-fusion detector learns: it overfits one small clip of real simulator data to AP above 90."""
+
+import pytest
+import torch
+from detector_support import smoke_dataset, tiny_config
+
+from train.checkpoint import load_checkpoint
+from train.evaluate import evaluate, mean_ap
+from train.fit import fit
+from train.models.detector import Detector
+
+ITERATIONS = 150
+
+
+@pytest.mark.overfit
+def test_late_model_overfits_a_small_clip(tmp_path, tmp_path_factory):
+    dataset = str(smoke_dataset(tmp_path_factory.getbasetemp(), 6))  # 4 samples, ~40 objects in range
+    config = tiny_config("late", iterations=ITERATIONS, lr=0.005, log_every=10)
+    result = fit(config, dataset, tmp_path, torch.device("cpu"), progress=False)
+    checkpoint = load_checkpoint(result.checkpoint)
+    model = Detector(checkpoint.config)
+    model.load_state_dict(checkpoint.model)
+    rows = evaluate(model, checkpoint.config, dataset, None, torch.device("cpu"), progress=False).rows
+    assert rows[0].truth >= 40
+    for box in ("t", "t-1", "t-2"):
+        assert mean_ap(rows, "bev", 40, box) > 90, (box, rows)
+        assert mean_ap(rows, "3d", 40, box) > 90, (box, rows)

@@ -1,0 +1,80 @@
+"""`simgen-train fit | eval | detect` end to end on a small real dataset, and its one-line errors."""
+
+import csv
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import yaml
+from conftest import ROOT
+from detector_support import smoke_dataset, tiny_config
+
+from train.detections import read_tracklets
+
+
+def run_train(*args: object) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "train.cli", *map(str, args)], capture_output=True, text=True, cwd=ROOT, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """A tiny late-fusion model fitted for 2 iterations; (dataset, run folder)."""
+    dataset = smoke_dataset(tmp_path_factory.getbasetemp(), 6)
+    run = tmp_path_factory.mktemp("run")
+    config = run / "tiny.yaml"
+    config.write_text(yaml.safe_dump(tiny_config("late").model_dump(mode="json")))
+    result = run_train("fit", config, "--dataset", dataset, "-o", run, "--iterations", 2, "--quiet")
+    assert result.returncode == 0, result.stderr
+    return dataset, run
+
+
+def test_fit_writes_a_checkpoint_and_a_loss_log(trained):
+    _, run = trained
+    assert (run / "checkpoint.pt").is_file()
+    rows = list(csv.DictReader(open(run / "train_log.csv")))
+    assert [r["iteration"] for r in rows] == ["1", "2"]
+    assert {"loss", "loss_cls", "loss_dir", "loss_loc_0", "loss_loc_2", "lr", "samples_per_s"} <= set(rows[0])
+
+
+def test_eval_writes_ap_for_the_three_boxes(trained, tmp_path):
+    dataset, run = trained
+    result = run_train("eval", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet")
+    assert result.returncode == 0, result.stderr
+    rows = list(csv.DictReader(open(tmp_path / "ap.csv")))
+    assert {(r["box"], r["iou"], r["recall_points"]) for r in rows} == {
+        (b, i, p) for b in ("t", "t-1", "t-2") for i in ("bev", "3d") for p in ("40", "11")
+    }
+    assert all(0.0 <= float(r["ap"]) <= 100.0 and int(r["truth"]) > 0 for r in rows)
+
+
+def test_detect_writes_tracklets_and_kitti_labels(trained, tmp_path):
+    dataset, run = trained
+    result = run_train("detect", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet")
+    assert result.returncode == 0, result.stderr
+    tracklets = read_tracklets(tmp_path / "tracklets" / "clip_0000.npz")
+    assert tracklets.boxes.shape[1:] == (3, 7) and tracklets.offsets.tolist() == [-2, -1, 0]
+    assert len(tracklets.frame) == len(tracklets.scores) and np.all(np.diff(tracklets.frame) >= 0)
+    assert ((tracklets.scores >= 0) & (tracklets.scores <= 1)).all()
+    labels = sorted((tmp_path / "kitti" / "clip_0000").iterdir())
+    assert [p.name for p in labels] == [f"{i:06d}.txt" for i in range(2, 6)]
+    lines = [line.split() for p in labels for line in p.read_text().splitlines()]
+    assert len(lines) == len(tracklets.frame) and all(len(f) == 16 and f[0] == "Pedestrian" for f in lines)
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (("fit", "train/configs/late.yaml", "--dataset", "/nonexistent/ds", "-o", "{tmp}"), "/nonexistent/ds"),
+        (("fit", "{tmp}/missing.yaml", "--dataset", "{dataset}", "-o", "{tmp}"), "no such config file"),
+        (("eval", "{tmp}/garbage.pt", "--dataset", "{dataset}", "-o", "{tmp}"), "not a simgen-train checkpoint"),
+        (("eval", "{run}/checkpoint.pt", "--dataset", "{dataset}", "-o", "{tmp}"), "no clips in the 'val' split"),
+        (("detect", "{tmp}/none.pt", "--dataset", "{dataset}", "-o", "{tmp}"), "no such checkpoint file"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(trained, tmp_path, args, message):
+    dataset, run = trained
+    (tmp_path / "garbage.pt").write_bytes(b"\x80\x02not a checkpoint")
+    result = run_train(*(a.format(tmp=tmp_path, dataset=dataset, run=run) for a in args))
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1 and message in result.stderr, result.stderr
