@@ -13,7 +13,7 @@ import numpy as np
 
 from scan_patterns import replay, risley, rose
 from scan_patterns.sensors import HeadSpec, SensorSpec
-from scan_patterns.shots import Shots, concatenate, head_rotation, make_shots
+from scan_patterns.shots import Shots, concatenate, head_rotation, make_shots, rotate
 from scan_patterns.timebase import shot_times
 
 
@@ -46,8 +46,7 @@ def shots(sensor: SensorSpec, t0_s: float, t1_s: float, density: float = 1.0) ->
     for index, head in enumerate(sensor.heads):
         part = head_shots(head, t0_s, t1_s, density, index)
         if head.yaw_deg or head.pitch_deg:
-            rotation = head_rotation(head.yaw_deg, head.pitch_deg).astype(np.float32)
-            part = Shots(part.t_s, part.dirs @ rotation.T, part.head, part.sweep, t0_s, t1_s)
+            part = Shots(part.t_s, rotate(part.dirs, head_rotation(head.yaw_deg, head.pitch_deg)), part.head, part.sweep, t0_s, t1_s)
         parts.append(part)
     return concatenate(parts)
 

@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 import scan_patterns
+from scan_patterns.shots import rotate
 from simgen.frames import SensorInfo
 from simgen.render import Rays
 from simgen.scenario import Scenario, SensorPose
@@ -50,7 +51,7 @@ def frame_rays(scenario: Scenario, specs: list[scan_patterns.SensorSpec], frame_
         shots = scan_patterns.frame_shots(spec, frame_index, scan.frame_rate_hz, scan.density, scan.sweeps_per_frame)
         rotation = sensor_rotation(sensor.pose)
         n = len(shots.t_s)
-        directions = shots.dirs.astype(np.float64) @ rotation.T
+        directions = rotate(shots.dirs.astype(np.float64), rotation)
         origin = np.array([sensor.pose.x, sensor.pose.y, sensor.pose.z])
         parts.append((np.broadcast_to(origin, (n, 3)), directions, clip_start_s + shots.t_s, np.full(n, i, np.uint8), shots.head))
     return Rays(*(np.concatenate(column) for column in zip(*parts)))
