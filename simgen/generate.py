@@ -128,6 +128,9 @@ def run_local(jobs: list[ClipJob], workers: int, progress: Progress) -> list[dic
     """Clips in this process (1 worker) or a pool of fresh processes (spawned: one engine each)."""
     if workers == 1:
         return [run_clip(job, progress) for job in jobs]
+    # One BLAS thread per worker: the workers already fill the cores.
+    for variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(variable, "1")
     context = get_context("spawn")
     with context.Manager() as manager:
         queue = manager.Queue()
