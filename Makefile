@@ -14,7 +14,9 @@ setup:
 demo: setup
 	$(SIMGEN) validate scenarios/default.yaml
 	$(SIMGEN) generate scenarios/default.yaml -o $(DEMO_OUT) --overwrite
-	@echo "demo: the dataset is in $(DEMO_OUT)/ (its README.md says what is there and how to read it)"
+	$(SIMGEN) view $(DEMO_OUT) --frames 0:100 -o $(DEMO_OUT)_view
+	@echo "demo: the dataset is in $(DEMO_OUT)/ (its README.md says what is there and how to read it);"
+	@echo "      pictures and a video of its first 10 s are in $(DEMO_OUT)_view/"
 
 test: setup
 	$(VENV)/bin/python -m pytest -q

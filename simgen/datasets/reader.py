@@ -35,6 +35,10 @@ class Dataset:
         else:
             self._reader = KittiReader(self.files, indices, tracking=self.format == "kitti_tracking")
 
+    def __repr__(self) -> str:
+        frames = sum(c.frames for c in self.manifest.clips)
+        return f"Dataset({str(self.root)!r}: {self.manifest.format}, {len(self.manifest.clips)} clips, {frames} frames)"
+
     @property
     def clips(self) -> tuple[str, ...]:
         """Clip ids in clip-index order."""
