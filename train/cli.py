@@ -15,7 +15,7 @@ import torch
 import simgen.datasets
 from simgen.errors import UserError
 from train.checkpoint import load_checkpoint
-from train.config import load_config
+from train.config import DetectorConfig, load_config
 from train.evaluate import detect, evaluate, format_ap_table, write_ap_csv
 from train.fit import fit
 from train.models.detector import Detector
@@ -47,7 +47,7 @@ def _split(name: str) -> str | None:
     return None if name == "all" else name
 
 
-def _model(checkpoint_path: str) -> tuple[Detector, object, int]:
+def _model(checkpoint_path: str) -> tuple[Detector, DetectorConfig, int]:
     checkpoint = load_checkpoint(checkpoint_path)
     model = Detector(checkpoint.config)
     try:
