@@ -76,10 +76,9 @@ def interpolate_clip(clip: MotionClip, times_s: NDArray) -> tuple[NDArray, NDArr
     lower = upper - 1
     span = clip.time_s[upper] - clip.time_s[lower]
     w = np.clip((times - clip.time_s[lower]) / span, 0.0, 1.0)
-    kp = clip.keypoints_m.astype(np.float64)
-    ball = clip.ball_m.astype(np.float64)
-    keypoints = kp[lower] + w[:, None, None, None] * (kp[upper] - kp[lower])
-    return keypoints, ball[lower] + w[:, None] * (ball[upper] - ball[lower])
+    kp0, kp1 = clip.keypoints_m[lower].astype(np.float64), clip.keypoints_m[upper].astype(np.float64)
+    ball0, ball1 = clip.ball_m[lower].astype(np.float64), clip.ball_m[upper].astype(np.float64)
+    return kp0 + w[:, None, None, None] * (kp1 - kp0), ball0 + w[:, None] * (ball1 - ball0)
 
 
 class World:
