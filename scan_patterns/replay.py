@@ -27,6 +27,10 @@ OFFICIAL_FILES = {"mid40": "mid40_official_4s.npz", "mid70": "mid70_official_4s.
 _EPS = 1e-6  # positions within this many shots of a file shot are that shot
 
 
+class PatternFileNotFound(ValueError):
+    """A pattern file (official or given) is not where it was looked for."""
+
+
 class PatternLoopWarning(UserWarning):
     """A replayed pattern file ran out and started again: the pattern repeats and jumps at the seam."""
 
@@ -65,7 +69,8 @@ def resolve(source: str) -> Path:
     """Path of a pattern file: an official name ('mid40', 'mid70') or a path to .npz / .csv."""
     path = livox_dir() / OFFICIAL_FILES[source] if source in OFFICIAL_FILES else Path(source)
     if not path.is_file():
-        raise ValueError(f"pattern file not found: {path}")
+        hint = " (set SIMGEN_LIVOX_DIR to the folder of Livox's official files)" if source in OFFICIAL_FILES else ""
+        raise PatternFileNotFound(f"pattern file not found: {path}{hint}")
     return path
 
 

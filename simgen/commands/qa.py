@@ -4,6 +4,7 @@ verdict per check; exit code 0 when every check passes, 1 when one fails."""
 from __future__ import annotations
 
 import argparse
+import shutil
 import textwrap
 from pathlib import Path
 
@@ -56,6 +57,7 @@ def run(args) -> int:
     tolerances = load_tolerances(args.tolerances)  # a bad file is one line before the heavy imports below
 
     from scan_patterns import UnknownSensorError
+    from scan_patterns.replay import PatternFileNotFound
     from simgen.datasets import open_dataset
     from simgen.qa.build import dataset_report, pattern_report
     from simgen.qa.checks import exit_code, summary
@@ -64,16 +66,19 @@ def run(args) -> int:
     out = args.output
     if out.exists() and not out.is_dir():
         raise UserError(f"{out}: exists and is not a directory")
-    if args.pattern is not None:
-        try:
+    created = not out.exists()
+    try:
+        if args.pattern is not None:
             out.mkdir(parents=True, exist_ok=True)
             report = pattern_report(args.pattern, tolerances, out)
-        except UnknownSensorError as error:
-            raise UserError(str(error)) from None
-    else:
-        dataset = open_dataset(args.dataset)
-        out.mkdir(parents=True, exist_ok=True)
-        report = dataset_report(dataset, tolerances, out, args.max_frames)
+        else:
+            dataset = open_dataset(args.dataset)
+            out.mkdir(parents=True, exist_ok=True)
+            report = dataset_report(dataset, tolerances, out, args.max_frames)
+    except (UnknownSensorError, PatternFileNotFound) as error:
+        if created:
+            shutil.rmtree(out, ignore_errors=True)
+        raise UserError(str(error)) from None
     write_report(report, out)
     _print_verdicts(report)
     print(f"{summary(list(report.checks))}; report: {out / 'index.html'}")
