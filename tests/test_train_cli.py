@@ -10,11 +10,19 @@ import yaml
 from conftest import ROOT
 from detector_support import smoke_dataset, tiny_config
 
+from train.cli import main
 from train.detections import read_tracklets
 
 
 def run_train(*args: object) -> subprocess.CompletedProcess:
+    """The CLI as a user runs it, in its own process."""
     return subprocess.run([sys.executable, "-m", "train.cli", *map(str, args)], capture_output=True, text=True, cwd=ROOT, timeout=300)
+
+
+def call_train(capsys, *args: object) -> tuple[int, str]:
+    """The CLI's entry point in this process (no torch import per call): exit code and stderr."""
+    code = main([str(a) for a in args])
+    return code, capsys.readouterr().err
 
 
 @pytest.fixture(scope="module")
@@ -37,10 +45,10 @@ def test_fit_writes_a_checkpoint_and_a_loss_log(trained):
     assert {"loss", "loss_cls", "loss_dir", "loss_loc_0", "loss_loc_2", "lr", "samples_per_s"} <= set(rows[0])
 
 
-def test_eval_writes_ap_for_the_three_boxes(trained, tmp_path):
+def test_eval_writes_ap_for_the_three_boxes(trained, tmp_path, capsys):
     dataset, run = trained
-    result = run_train("eval", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet")
-    assert result.returncode == 0, result.stderr
+    code, err = call_train(capsys, "eval", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet")
+    assert code == 0, err
     rows = list(csv.DictReader(open(tmp_path / "ap.csv")))
     assert {(r["box"], r["iou"], r["recall_points"]) for r in rows} == {
         (b, i, p) for b in ("t", "t-1", "t-2") for i in ("bev", "3d") for p in ("40", "11")
@@ -48,10 +56,10 @@ def test_eval_writes_ap_for_the_three_boxes(trained, tmp_path):
     assert all(0.0 <= float(r["ap"]) <= 100.0 and int(r["truth"]) > 0 for r in rows)
 
 
-def test_detect_writes_tracklets_and_kitti_labels(trained, tmp_path):
+def test_detect_writes_tracklets_and_kitti_labels(trained, tmp_path, capsys):
     dataset, run = trained
-    result = run_train("detect", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet")
-    assert result.returncode == 0, result.stderr
+    code, err = call_train(capsys, "detect", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet")
+    assert code == 0, err
     tracklets = read_tracklets(tmp_path / "tracklets" / "clip_0000.npz")
     assert tracklets.boxes.shape[1:] == (3, 7) and tracklets.offsets.tolist() == [-2, -1, 0]
     assert len(tracklets.frame) == len(tracklets.scores) and np.all(np.diff(tracklets.frame) >= 0)
@@ -72,9 +80,15 @@ def test_detect_writes_tracklets_and_kitti_labels(trained, tmp_path):
         (("detect", "{tmp}/none.pt", "--dataset", "{dataset}", "-o", "{tmp}"), "no such checkpoint file"),
     ],
 )
-def test_bad_input_is_one_line_and_exit_2(trained, tmp_path, args, message):
+def test_bad_input_is_one_line_and_exit_2(trained, tmp_path, capsys, args, message):
     dataset, run = trained
     (tmp_path / "garbage.pt").write_bytes(b"\x80\x02not a checkpoint")
-    result = run_train(*(a.format(tmp=tmp_path, dataset=dataset, run=run) for a in args))
-    assert result.returncode == 2
-    assert result.stderr.count("\n") == 1 and message in result.stderr, result.stderr
+    code, err = call_train(capsys, *(a.format(tmp=tmp_path, dataset=dataset, run=run) for a in args))
+    assert code == 2
+    assert err.count("\n") == 1 and message in err, err
+
+
+def test_usage_errors_are_one_line(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["fit"])
+    assert exit_.value.code == 2 and capsys.readouterr().err.count("\n") == 1
