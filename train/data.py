@@ -155,8 +155,8 @@ class Batch:
     samples: tuple[Sample, ...]
 
     def to(self, device: torch.device) -> "Batch":
-        moved = {k: getattr(self, k).to(device) for k in ("features", "pillar", "labels", "positives", "deltas", "box_mask", "direction")}
-        return replace(self, **moved)
+        tensors = ("features", "pillar", "labels", "positives", "deltas", "box_mask", "direction")
+        return replace(self, **{name: getattr(self, name).to(device) for name in tensors})
 
 
 def collate(items: list[Encoded], canvases: int, grid_cells: int, anchors: int) -> Batch:

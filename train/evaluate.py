@@ -21,6 +21,7 @@ from train.postprocess import Detections, postprocess
 
 IOU_THRESHOLD = 0.5
 EVAL_BATCH = 2
+MEANINGFUL_TRUTH = 40  # fewer ground-truth boxes make AP coarse
 
 
 @dataclass(frozen=True)
@@ -81,6 +82,9 @@ def format_ap_table(rows: list[ApRow]) -> str:
         if r.recall_points == 40:
             r11 = next(x.ap for x in rows if (x.box, x.iou, x.recall_points) == (r.box, r.iou, 11))
             lines.append(f"{r.box:<4} {r.iou:<4} {r.ap:6.2f}  {r11:6.2f}  {r.truth:5d}  {r.detections:10d}")
+    fewest = min((r.truth for r in rows), default=0)
+    if fewest < MEANINGFUL_TRUTH:
+        lines.append(f"note: {fewest} ground-truth boxes; AP moves in large steps under about {MEANINGFUL_TRUTH}")
     return "\n".join(lines)
 
 
