@@ -1,4 +1,4 @@
-"""`simgen-train fit | eval | detect`: the paper's PointPillars tracklet detector on simgen datasets.
+"""`simgen-train fit | eval | detect | study`: the paper's PointPillars tracklet detector on simgen datasets.
 
 Datasets are read only through simgen.datasets. Bad input (a missing dataset or config, a file
 that is not our checkpoint) is one line on stderr and exit code 2.
@@ -7,6 +7,7 @@ that is not our checkpoint) is one line on stderr and exit code 2.
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from pathlib import Path
 
@@ -14,11 +15,14 @@ import torch
 
 import simgen.datasets
 from simgen.errors import UserError
+from simgen.scenario import load_scenario
 from train.checkpoint import load_checkpoint
 from train.config import DetectorConfig, load_config
 from train.evaluate import detect, evaluate, format_ap_table, write_ap_csv
 from train.fit import fit
 from train.models.detector import Detector
+from train.study import CONFIGS, StudyOptions, parse_models, run_study
+from train.study_report import write_tables
 
 SPLITS = ("train", "val", "all")
 
@@ -85,6 +89,23 @@ def _detect(args: argparse.Namespace) -> int:
     return 0
 
 
+def _study(args: argparse.Namespace) -> int:
+    if args.iterations is not None and args.iterations < 1:
+        raise UserError(f"--iterations: {args.iterations} is not a positive number of batches")
+    scenario = load_scenario(args.scenario)
+    models = parse_models(args.models, scenario.scan.density)
+    options = StudyOptions(Path(args.scenario), Path(args.output), Path(args.datasets), models, args.iterations, args.workers,
+                           args.seed, Path(args.configs), _device(args.device), not args.quiet)
+    spelled = [args.scenario, "-o", args.output, "--models", ",".join(models), "--datasets", args.datasets]
+    spelled += ["--device", args.device]
+    for key in ("iterations", "workers", "seed"):
+        spelled += [f"--{key}", str(getattr(args, key))] if getattr(args, key) is not None else []
+    spelled += ["--configs", args.configs] if Path(args.configs) != CONFIGS else []
+    paths = write_tables(run_study(options, scenario), shlex.join(["simgen-train", "study", *spelled]), options.out)
+    print("\n".join(str(p) for p in paths))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="simgen-train",
@@ -114,6 +135,20 @@ def build_parser() -> argparse.ArgumentParser:
         common(p)
         p.add_argument("--split", choices=SPLITS, default="val", help="clips to run on (default: val)")
         p.set_defaults(func=func)
+
+    p = sub.add_parser("study", help="a scenario -> its dataset -> the paper's Table 1 (AP) and Table 2 (tracking) in OUT")
+    p.add_argument("scenario", help="scenario YAML (scenarios/); its dataset is DATASETS/<name>, made if missing")
+    p.add_argument("-o", "--output", required=True, help="output folder (created): table1/2.md and .csv, a run per model")
+    p.add_argument("--models", default="late", help="Table 1 rows, comma-separated: late and any of single, early "
+                   "(default: late)")
+    p.add_argument("--iterations", type=int, help="training batches per model (default: each config's)")
+    p.add_argument("--workers", type=int, help="override train.workers (loader processes)")
+    p.add_argument("--seed", type=int, help="override the configs' seed")
+    p.add_argument("--datasets", default="datasets", help="folder of datasets by scenario name (default: datasets)")
+    p.add_argument("--configs", default=str(CONFIGS), help="folder with single/early/late.yaml (default: train/configs)")
+    p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto", help="default: CUDA when present")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(func=_study)
     return parser
 
 

@@ -1,0 +1,110 @@
+"""`simgen-train study` end to end on a tiny generated dataset, its reuse of data and models, and its one-line errors."""
+
+from __future__ import annotations
+
+import csv
+import io
+from contextlib import redirect_stderr, redirect_stdout
+
+import pytest
+import yaml
+from conftest import ROOT
+from detector_support import SMOKE, tiny_config
+
+import simgen.datasets
+from train.cli import main
+from train.study import TRACKERS
+
+pytestmark = pytest.mark.engine
+NAME = "study_tiny"
+PAPER_X2 = ROOT / "scenarios" / "paper_x2.yaml"
+METHODS = ("Single Frame (x1)", "Early Fusion (x1)", "Late Fusion (x1)")
+
+
+def run_study(*args: object) -> tuple[int, str, str]:
+    """(exit code, stdout, stderr) of `simgen-train study ARGS`, run in this process."""
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        code = main(["study", *map(str, args)])
+    return code, out.getvalue(), err.getvalue()
+
+
+def write_scenario(path, **changes) -> None:
+    """The smoke scenario cut to 2 clips of 12 frames (the split puts the last one in val)."""
+    data = yaml.safe_load(SMOKE.read_text())
+    data.update(name=NAME, scan={"frames": 12}, dataset={"clips": 2}, **changes)
+    path.write_text(yaml.safe_dump(data))
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    """(scenario, configs, datasets, out, stdout) of one study of all three models, 2 iterations each."""
+    root = tmp_path_factory.mktemp("study")
+    scenario, configs, datasets, out = root / "tiny.yaml", root / "configs", root / "datasets", root / "out"
+    write_scenario(scenario)
+    configs.mkdir()
+    for fusion in ("single", "early", "late"):
+        (configs / f"{fusion}.yaml").write_text(yaml.safe_dump(tiny_config(fusion).model_dump(mode="json")))
+    code, stdout, stderr = run_study(scenario, "-o", out, "--datasets", datasets, "--configs", configs,
+                                     "--iterations", 2, "--models", "late,single,early", "--quiet")
+    assert code == 0, stderr[-2000:]
+    return scenario, configs, datasets, out, stdout
+
+
+def test_the_study_generates_its_dataset_with_a_val_clip(study):
+    _, _, datasets, _, _ = study
+    dataset = simgen.datasets.open(datasets / NAME)
+    assert [dataset.split(c) for c in dataset.clips] == ["train", "val"]
+    assert [dataset.num_frames(c) for c in dataset.clips] == [12, 12]
+
+
+def test_table1_has_a_row_per_model_and_the_command(study):
+    _, _, _, out, stdout = study
+    text = (out / "table1.md").read_text()
+    assert "Command: `simgen-train study " in text and "--iterations 2" in text and "Seed: 0" in text
+    rows = [line for line in text.splitlines() if line.startswith("| ") and "(x1)" in line]
+    assert [row.split(" | ")[0][2:] for row in rows] == list(METHODS)
+    ap = list(csv.DictReader(open(out / "table1.csv")))
+    boxes = {("single", "t"), ("early", "t"), ("late", "t"), ("late", "t-1"), ("late", "t-2")}
+    assert {(r["model"], r["box"]) for r in ap} == boxes
+    assert all(0.0 <= float(r["ap"]) <= 100.0 and int(r["truth"]) > 0 and r["iterations"] == "2" for r in ap)
+    assert str(out / "table2.md") in stdout
+
+
+def test_table2_has_every_tracker_at_both_ious(study):
+    _, _, _, out, _ = study
+    text = (out / "table2.md").read_text()
+    assert "## 3D IoU >= 0.25" in text and "## 3D IoU >= 0.5" in text
+    rows = list(csv.DictReader(open(out / "table2.csv")))
+    assert [(r["tracker"], r["min_iou"]) for r in rows] == [(name, iou) for name, _ in TRACKERS for iou in ("0.25", "0.5")]
+    assert all(0.0 <= float(r[k]) <= 1.0 for r in rows for k in ("samota", "amota", "amotp", "motp"))
+    assert all(int(r["n_gt"]) > 0 and int(r["tp"]) + int(r["fn"]) == int(r["n_gt"]) for r in rows)
+    assert (out / "late" / "tracklets" / "clip_0001.npz").is_file()
+
+
+def test_a_second_study_reuses_the_dataset_and_the_late_checkpoint(study):
+    scenario, configs, datasets, out, _ = study
+    code, _, stderr = run_study(scenario, "-o", out, "--datasets", datasets, "--configs", configs, "--iterations", 2, "--quiet")
+    assert code == 0, stderr[-2000:]
+    text = (out / "table1.md").read_text()
+    assert "reused (same resolved scenario)" in text and "late 2 iterations x batch 2 (checkpoint reused)" in text
+    assert [line for line in text.splitlines() if "(x1) |" in line][0].startswith("| Late Fusion (x1) |")
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (("{tmp}/missing.yaml", "-o", "{tmp}/out"), "no such scenario file"),
+        (("{scenario}", "-o", "{tmp}/out", "--models", "late,pointnet"), "unknown model 'pointnet'"),
+        (("{scenario}", "-o", "{tmp}/out", "--models", "single"), "needs 'late'"),
+        ((str(PAPER_X2), "-o", "{tmp}/out", "--models", "late,early"), "no 'early' row at density x2"),
+        (("{scenario}", "-o", "{tmp}/out", "--iterations", "0"), "--iterations: 0"),
+        (("{tmp}/other.yaml", "-o", "{tmp}/out", "--datasets", "{datasets}"), "holds a dataset of another scenario"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(study, tmp_path, args, message):
+    scenario, _, datasets, _, _ = study
+    write_scenario(tmp_path / "other.yaml", seed=8)
+    code, _, stderr = run_study(*(a.format(tmp=tmp_path, scenario=scenario, datasets=datasets) for a in args))
+    assert code == 2, stderr
+    assert stderr.count("\n") == 1 and message in stderr, stderr

@@ -1,0 +1,251 @@
+"""`simgen-train study`: one scenario -> its dataset -> the paper's Table 1 (detection AP) and Table 2 (tracking).
+
+1. The dataset: `DATASETS/<scenario name>` is reused when its manifest holds the same resolved
+   scenario, else made by `simgen generate` in a subprocess (the public interface).
+2. Table 1: each model asked for (`late` always) is trained on the `train` clips (train.fit), or
+   reused from `OUT/<model>/` when that checkpoint has the same config and data, and its boxes at t
+   are scored on the `val` clips (train.evaluate: AP in BEV and 3D, IoU 0.5).
+3. Table 2: the `late` model's tracklets on the `val` clips go to AB3DMOT and to the 3D DIoU tracker
+   with and without birth/death and split; their tracks are scored against the labels (train.metrics).
+
+Ground truth, as for AP: the objects of the detector's classes whose centre at t lies in its
+point range, on every frame with two before it (the first frame a tracklet can describe).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import torch
+from tqdm import tqdm
+
+import simgen.datasets
+from simgen.atomic import atomic_path
+from simgen.errors import UserError
+from simgen.scenario import Scenario, parse_scenario
+from train.checkpoint import load_checkpoint
+from train.config import DetectorConfig, load_config, parse_config
+from train.data import Sample
+from train.detections import ClipTracklets, clip_tracklets, write_tracklets
+from train.evaluate import ApRow, average_precisions, predict
+from train.fit import CHECKPOINT_NAME, fit
+from train.metrics.tracking import TrackingMetrics, evaluate_tracking
+from train.models.detector import Detector
+from train.postprocess import Detections
+from train.tracking.ab3dmot import Ab3dmot
+from train.tracking.diou_tracker import DiouTracker, DiouTrackerConfig
+from train.tracking.types import GroundTruthFrame, TrackedFrame, Tracklets
+
+MODELS = ("single", "early", "late")  # the paper's Table 1 methods
+TRACKED_MODEL = "late"
+# The paper's Table 1 rows per point density (x1: single, early, late; x2: single, late).
+PAPER_ROWS = {1.0: ("single", "early", "late"), 2.0: ("single", "late")}
+TRACKERS: tuple[tuple[str, DiouTrackerConfig | None], ...] = (  # None: AB3DMOT
+    ("AB3DMOT", None),
+    ("3D DIoU", DiouTrackerConfig(birth_death=False, split=False)),
+    ("3D DIoU + split", DiouTrackerConfig(birth_death=False)),
+    ("3D DIoU + birth/death", DiouTrackerConfig(split=False)),
+    ("3D DIoU + birth/death + split", DiouTrackerConfig()),
+)
+MIN_IOUS = (0.25, 0.5)  # 3D IoU of a true positive: AB3DMOT's default, and the stricter one
+CONFIGS = Path(__file__).parent / "configs"
+TRAINED_ON = "trained_on.json"  # beside a study's checkpoint: the dataset and scenario it was fitted on
+GENERATE_STATE = Path(".simgen") / "scenario.json"  # an interrupted `simgen generate` run
+
+
+@dataclass(frozen=True)
+class StudyOptions:
+    scenario: Path  # scenario YAML
+    out: Path
+    datasets: Path  # folder of datasets, one per scenario name
+    models: tuple[str, ...]
+    iterations: int | None  # training batches per model; None: the configs'
+    workers: int | None  # loader processes; None: the configs'
+    seed: int | None  # None: the configs'
+    configs: Path  # folder with <model>.yaml
+    device: torch.device
+    progress: bool
+
+
+@dataclass(frozen=True)
+class StudyDataset:
+    path: Path
+    scenario: Scenario
+    generated: bool  # False: reused
+    seconds: float  # generating (or checking) it
+    val_clips: tuple[str, ...]
+    val_frames: int
+
+
+@dataclass(frozen=True)
+class DetectorResult:
+    model: str
+    config: DetectorConfig  # as trained (iterations, workers, seed applied)
+    reused: bool  # checkpoint found in OUT/<model>/, not trained again
+    fit_s: float
+    eval_s: float
+    rows: list[ApRow]  # AP of the boxes at t (and t-1, t-2 for late) on the val clips
+
+
+@dataclass(frozen=True)
+class TrackerResult:
+    tracker: str
+    min_iou: float
+    metrics: TrackingMetrics
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    dataset: StudyDataset
+    detectors: list[DetectorResult]
+    trackers: list[TrackerResult]
+    tracking_s: float
+    seconds: float  # the whole study
+    device: str
+
+
+def parse_models(text: str, density: float) -> tuple[str, ...]:
+    """`late,single,...` -> models in Table 1 order; `late` is required, and at x1/x2 only the paper's rows."""
+    asked = [m.strip() for m in text.split(",") if m.strip()]
+    unknown = sorted(set(asked) - set(MODELS))
+    if unknown:
+        raise UserError(f"--models: unknown model {unknown[0]!r} (known: {', '.join(MODELS)})")
+    if TRACKED_MODEL not in asked:
+        raise UserError(f"--models: needs {TRACKED_MODEL!r}, whose tracklets Table 2 tracks")
+    rows = PAPER_ROWS.get(density, MODELS)
+    beyond = [m for m in asked if m not in rows]
+    if beyond:
+        raise UserError(f"--models: the paper's Table 1 has no {beyond[0]!r} row at density x{density:g} "
+                        f"(it has {', '.join(rows)})")
+    return tuple(m for m in MODELS if m in asked)
+
+
+def prepare_dataset(scenario_path: Path, scenario: Scenario, datasets: Path, progress: bool) -> StudyDataset:
+    """Reuse `datasets/<name>` if it holds this resolved scenario; else `simgen generate` it (resuming a broken run)."""
+    root = datasets / scenario.name
+    start = time.perf_counter()
+    generated = not (root / "manifest.json").is_file()
+    if generated:
+        command = [sys.executable, "-m", "simgen.cli", "generate", str(scenario_path), "-o", str(root)]
+        command += ["--resume"] if (root / GENERATE_STATE).is_file() else []
+        quiet = None if progress else subprocess.PIPE
+        done = subprocess.run(command, stdout=quiet, stderr=quiet, text=True)
+        if done.returncode:
+            said = (done.stderr or "").strip().splitlines()[-1:]
+            raise UserError(f"simgen {' '.join(command[4:])}: exit {done.returncode}" + (f" ({said[0]})" if said else ""))
+    dataset = simgen.datasets.open(root)
+    found = parse_scenario(dataset.manifest.scenario, f"{root}/manifest.json").model_dump(mode="json")
+    if found != scenario.model_dump(mode="json"):
+        raise UserError(f"{root}: holds a dataset of another scenario named {scenario.name!r}; move it or pass --datasets")
+    val = tuple(c for c in dataset.clips if dataset.split(c) == "val")
+    if not val:
+        raise UserError(f"{root}: no clips in the 'val' split (a dataset needs 2 clips or more)")
+    frames = sum(dataset.num_frames(c) for c in val)
+    return StudyDataset(root, scenario, generated, time.perf_counter() - start, val, frames)
+
+
+def model_config(options: StudyOptions, model: str) -> DetectorConfig:
+    """`<configs>/<model>.yaml` with the study's iterations, workers and seed, validated again."""
+    path = options.configs / f"{model}.yaml"
+    data = load_config(path).model_dump(mode="json")
+    data["train"].update({k: v for k, v in (("iterations", options.iterations), ("workers", options.workers)) if v is not None})
+    if options.seed is not None:
+        data["seed"] = options.seed
+    config = parse_config(data, f"{path} (with the study's options)")
+    if config.model.fusion != model:
+        raise UserError(f"{path}: is a {config.model.fusion!r} model, the study needs {model!r} there")
+    return config
+
+
+def _trained_on(dataset: StudyDataset) -> dict:
+    return {"dataset": str(dataset.path.resolve()), "scenario": dataset.scenario.model_dump(mode="json")}
+
+
+def trained_model(options: StudyOptions, model: str, dataset: StudyDataset) -> tuple[Detector, DetectorConfig, bool, float]:
+    """(detector, config, reused, fit seconds): the checkpoint in OUT/<model>/ if it matches, else train.fit."""
+    config, run = model_config(options, model), options.out / model
+    path, marker = run / CHECKPOINT_NAME, run / TRAINED_ON
+    start = time.perf_counter()
+    reused = path.is_file() and marker.is_file() and json.loads(marker.read_text()) == _trained_on(dataset)
+    if reused:
+        checkpoint = load_checkpoint(path)
+        reused = checkpoint.config == config and checkpoint.iteration == config.train.iterations
+    if not reused:
+        marker.unlink(missing_ok=True)
+        fit(config, str(dataset.path), run, options.device, options.progress)
+        with atomic_path(marker) as tmp:
+            tmp.write_text(json.dumps(_trained_on(dataset), sort_keys=True))
+        checkpoint = load_checkpoint(path)
+    detector = Detector(config)
+    detector.load_state_dict(checkpoint.model)
+    return detector, config, reused, time.perf_counter() - start
+
+
+@dataclass(frozen=True)
+class ValDetections:
+    """A model's tracklets and the ground truth on the val clips, per clip, frame for frame."""
+
+    tracklets: dict[str, ClipTracklets]
+    frames: dict[str, list[int]]  # frames t with two before them
+    truth: dict[str, list[GroundTruthFrame]]
+
+
+def detect_val(
+    model: Detector, config: DetectorConfig, dataset: StudyDataset, options: StudyOptions
+) -> tuple[list[ApRow], ValDetections]:
+    """One inference pass over the val clips: AP rows, tracklets and the ground truth they are scored on."""
+    predicted = predict(model, config, str(dataset.path), "val", options.device, options.progress)
+    results = [(replace(s, points=()), d) for s, d in predicted]  # the points are not needed again
+    by_clip: dict[str, list[tuple[Sample, Detections]]] = {}
+    for sample, detected in results:
+        by_clip.setdefault(sample.clip, []).append((sample, detected))
+    tracklets = {
+        clip: clip_tracklets(clip, [s.index for s, _ in rows], [d.boxes for _, d in rows], [d.scores for _, d in rows])
+        for clip, rows in by_clip.items()
+    }
+    frames = {clip: [s.index for s, _ in rows] for clip, rows in by_clip.items()}
+    truth = {clip: [GroundTruthFrame(s.boxes[:, -1], s.track_id) for s, _ in rows] for clip, rows in by_clip.items()}
+    return average_precisions(results), ValDetections(tracklets, frames, truth)
+
+
+def run_tracker(config: DiouTrackerConfig | None, tracklets: ClipTracklets, frames: list[int]) -> list[TrackedFrame]:
+    """One clip through AB3DMOT (config None) or the 3D DIoU tracker, one output per frame."""
+    tracker = Ab3dmot() if config is None else DiouTracker(config)
+    return [tracker.step(Tracklets(*tracklets.at(f))) for f in frames]
+
+
+def track(detections: ValDetections, progress: bool) -> list[TrackerResult]:
+    """Table 2: every tracker on every val clip, scored at each of MIN_IOUS."""
+    clips = sorted(detections.tracklets)
+    truth = [detections.truth[c] for c in clips]
+    results = []
+    for name, config in tqdm(TRACKERS, desc="track", unit="tracker", disable=not progress, dynamic_ncols=True):
+        tracks = [run_tracker(config, detections.tracklets[c], detections.frames[c]) for c in clips]
+        results += [TrackerResult(name, iou, evaluate_tracking(truth, tracks, min_iou=iou)) for iou in MIN_IOUS]
+    return results
+
+
+def run_study(options: StudyOptions, scenario: Scenario) -> StudyResult:
+    """The whole study; writes OUT/<model>/ (checkpoint, log), OUT/late/tracklets/ and returns the numbers."""
+    start = time.perf_counter()
+    dataset = prepare_dataset(options.scenario, scenario, options.datasets, options.progress)
+    detectors, tracked = [], None
+    for model in options.models:
+        detector, config, reused, fit_s = trained_model(options, model, dataset)
+        began = time.perf_counter()
+        rows, detections = detect_val(detector, config, dataset, options)
+        detectors.append(DetectorResult(model, config, reused, fit_s, time.perf_counter() - began, rows))
+        if model == TRACKED_MODEL:
+            tracked = detections
+            (options.out / model / "tracklets").mkdir(parents=True, exist_ok=True)
+            for clip, clip_rows in detections.tracklets.items():
+                write_tracklets(options.out / model / "tracklets" / f"{clip}.npz", clip_rows)
+    began = time.perf_counter()
+    trackers = track(tracked, options.progress)
+    now = time.perf_counter()
+    return StudyResult(dataset, detectors, trackers, now - began, now - start, options.device.type)
