@@ -38,16 +38,20 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+def dispatch(prog: str, args: argparse.Namespace) -> int:
+    """Run a parsed sub-command: `UserError` becomes one line on stderr and exit code 2."""
     try:
         return int(args.func(args) or 0)
     except UserError as error:
-        print(f"simgen {args.command}: error: {' '.join(str(error).splitlines())}", file=sys.stderr)
+        print(f"{prog} {args.command}: error: {' '.join(str(error).splitlines())}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"simgen {args.command}: interrupted", file=sys.stderr)
+        print(f"{prog} {args.command}: interrupted", file=sys.stderr)
         return 130
+
+
+def main(argv: list[str] | None = None) -> int:
+    return dispatch("simgen", build_parser().parse_args(argv))
 
 
 if __name__ == "__main__":

@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -14,7 +12,7 @@ import time
 import numpy as np
 import pytest
 
-from conftest import ROOT, run_simgen
+from conftest import ROOT, local_ray_cluster, run_simgen
 import simgen.datasets as datasets
 
 pytestmark = pytest.mark.engine
@@ -74,20 +72,9 @@ def test_workers_and_seeds(parquet_dataset, tmp_path):
 
 
 def test_ray_executor_matches_local(parquet_dataset, tmp_path):
-    ray = str(ROOT / ".venv" / "bin" / "ray")
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        port = probe.getsockname()[1]
-    env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
-    subprocess.run(
-        [ray, "start", "--head", f"--port={port}", "--node-ip-address=127.0.0.1", "--num-cpus=2", "--include-dashboard=false", "--disable-usage-stats"],
-        check=True, capture_output=True, env=env, timeout=180,
-    )
-    try:
-        out = tmp_path / "ray"
-        generate(out, "--executor", "ray", "--address", f"127.0.0.1:{port}")
-    finally:
-        subprocess.run([ray, "stop", "--force"], capture_output=True, env=env, timeout=120)
+    out = tmp_path / "ray"
+    with local_ray_cluster() as address:
+        generate(out, "--executor", "ray", "--address", address)
     assert manifest_files(out) == manifest_files(parquet_dataset[0])
 
 

@@ -9,7 +9,6 @@ import json
 import os
 import random
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -21,7 +20,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import simgen.datasets as datasets
-from conftest import ROOT, run_simgen
+from conftest import ROOT, local_ray_cluster, run_simgen
 from simgen.errors import UserError
 from simgen.scenario import parse_scenario
 
@@ -236,18 +235,9 @@ def test_sigkill_at_random_moments_then_resume(reference, tmp_path):
 
 @pytest.mark.engine
 def test_ray_worker_killed_mid_task_is_retried(reference, tmp_path):
-    ray = str(ROOT / ".venv" / "bin" / "ray")
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        port = probe.getsockname()[1]
-    env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
-    subprocess.run(
-        [ray, "start", "--head", f"--port={port}", "--node-ip-address=127.0.0.1", "--num-cpus=2", "--include-dashboard=false", "--disable-usage-stats"],
-        check=True, capture_output=True, env=env, timeout=180,
-    )
-    try:
+    with local_ray_cluster() as address:
         out = tmp_path / "ray"
-        command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), *SMALL, "--executor", "ray", "--address", f"127.0.0.1:{port}"]
+        command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), *SMALL, "--executor", "ray", "--address", address]
         driver = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         killed = None
         deadline = time.time() + 180
@@ -259,8 +249,6 @@ def test_ray_worker_killed_mid_task_is_retried(reference, tmp_path):
                 killed = int(tasks[0])
             time.sleep(0.05)
         stdout, stderr = driver.communicate(timeout=600)
-    finally:
-        subprocess.run([ray, "stop", "--force"], capture_output=True, env=env, timeout=120)
     assert killed is not None, "no Ray task was seen running"
     assert driver.returncode == 0, stderr[-2000:]
     assert _shas(out) == _shas(reference[0])

@@ -14,6 +14,7 @@ from pathlib import Path
 import torch
 
 import simgen.datasets
+from simgen.cli import dispatch
 from simgen.errors import UserError
 from simgen.scenario import load_scenario
 from train.checkpoint import load_checkpoint
@@ -153,15 +154,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    try:
-        return int(args.func(args) or 0)
-    except UserError as error:
-        print(f"simgen-train {args.command}: error: {error}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"simgen-train {args.command}: interrupted", file=sys.stderr)
-        return 130
+    return dispatch("simgen-train", build_parser().parse_args(argv))
 
 
 if __name__ == "__main__":
