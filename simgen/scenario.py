@@ -10,13 +10,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 import scan_patterns
 
-from simgen.errors import UserError
 from simgen.noise import NoiseConfig
+from simgen.validation import read_yaml, validate
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -139,53 +138,11 @@ class Scenario(_Strict):
         return self
 
 
-def _field_path(location: tuple) -> str:
-    """Dotted path of a field; control characters in user-given keys are escaped to keep one line."""
-    return ".".join(str(part).encode("unicode_escape").decode("ascii") for part in location) or "(top level)"
-
-
-def _one_line(error: ValidationError) -> str:
-    first = error.errors()[0]
-    if not first["loc"]:  # a check across sections: its message names the fields
-        return first["msg"].removeprefix("Value error, ")
-    field = _field_path(first["loc"])
-    if first["type"] == "value_error":
-        return f"'{field}': {first['msg'].removeprefix('Value error, ')}"
-    if first["type"] == "extra_forbidden":
-        return f"unknown key '{field}'"
-    if first["type"] == "missing":
-        return f"missing key '{field}'"
-    value = repr(first.get("input"))
-    return f"'{field}': {first['msg']} (got {value[:60]}{'...' if len(value) > 60 else ''})"
-
-
 def parse_scenario(data: object, source: str = "scenario") -> Scenario:
     """Validate a parsed YAML document; raise `UserError` naming the first bad field."""
-    if not isinstance(data, dict):
-        raise UserError(f"{source}: expected a mapping of keys at the top level")
-    try:
-        return Scenario.model_validate(data)
-    except ValidationError as error:
-        extra = f" (and {error.error_count() - 1} more)" if error.error_count() > 1 else ""
-        raise UserError(f"{source}: {_one_line(error)}{extra}") from None
+    return validate(Scenario, data, source)
 
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a scenario YAML file."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise UserError(f"{path}: no such scenario file") from None
-    except IsADirectoryError:
-        raise UserError(f"{path}: is a directory, not a scenario file") from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise UserError(f"{path}: cannot read ({error.__class__.__name__}: {error})") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as error:
-        mark = getattr(error, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(error, "problem", None) or "malformed YAML"
-        raise UserError(f"{path}: malformed YAML{where}: {problem}") from None
-    return parse_scenario(data, str(path))
+    return parse_scenario(read_yaml(path, "scenario"), str(path))

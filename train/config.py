@@ -9,10 +9,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from simgen.errors import UserError
+from simgen.validation import read_yaml, validate
 
 TRACKLET_FRAMES = 3  # t-2, t-1, t
 
@@ -166,38 +165,11 @@ class DetectorConfig(_Strict):
         return self
 
 
-def _one_line(error: ValidationError) -> str:
-    first = error.errors()[0]
-    field = ".".join(str(part) for part in first["loc"])
-    if not field:
-        return first["msg"].removeprefix("Value error, ")
-    if first["type"] == "extra_forbidden":
-        return f"unknown key '{field}'"
-    if first["type"] == "missing":
-        return f"missing key '{field}'"
-    return f"'{field}': {first['msg']} (got {first.get('input')!r})"
-
-
 def parse_config(data: object, source: str = "config") -> DetectorConfig:
     """Validate a parsed config; raise `UserError` naming the first bad field."""
-    if not isinstance(data, dict):
-        raise UserError(f"{source}: expected a mapping of keys at the top level")
-    try:
-        return DetectorConfig.model_validate(data)
-    except ValidationError as error:
-        more = f" (and {error.error_count() - 1} more)" if error.error_count() > 1 else ""
-        raise UserError(f"{source}: {_one_line(error)}{more}") from None
+    return validate(DetectorConfig, data, source)
 
 
 def load_config(path: str | Path) -> DetectorConfig:
     """Read and validate a detector config YAML file."""
-    path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise UserError(f"{path}: no such config file") from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise UserError(f"{path}: cannot read ({error.__class__.__name__})") from None
-    except yaml.YAMLError as error:
-        raise UserError(f"{path}: malformed YAML ({getattr(error, 'problem', None) or error})") from None
-    return parse_config(data, str(path))
+    return parse_config(read_yaml(path, "config"), str(path))
