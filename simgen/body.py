@@ -4,7 +4,8 @@ Each body part is a tapered elliptic capsule: two half-ellipsoid caps, one per e
 a band. Its template (unit sphere split at the equator, band rings at fixed fractions) is
 built once; each of its vertices is carried by the affine frame of one end, or by a fixed
 blend of both frames for band rings. Posing is then a single sparse matrix product of that
-skinning matrix with the 2 x 14 end frames of every humanoid, vectorised over humanoids.
+skinning matrix with the 2 x 14 end frames of every humanoid, vectorised over humanoids; the
+end frames come from the keypoints by a compiled (numba) loop over humanoids, `_rig`.
 
 Both ends of a part share one orientation and the engine's skeleton is rigid (every bone has
 the same length in every frame and player), so each part moves rigidly with its frame
@@ -31,11 +32,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import scipy.sparse
 from numpy.typing import ArrayLike, NDArray
 
-from simgen.heading import as_keypoints, heading
+from simgen.heading import as_keypoints, forward_and_source
 from simgen.skeleton import KEYPOINT_INDEX
 
 TEAM_NAMES = ("left", "right", "official")  # as simgen.motion.MotionClip.team
@@ -122,6 +124,7 @@ _PARTS = (
     ),
 )
 PART_NAMES = tuple(p.name for p in _PARTS)
+_NUM_PARTS = len(_PARTS)
 _HALF_AXES_M = np.array([p.half_axes_m for p in _PARTS])  # (P, 2, 3)
 
 # Placement along the body, metres.
@@ -209,47 +212,173 @@ _PART_FACE_START = np.searchsorted(_PART_ID, np.arange(len(_PARTS) + 1))
 _PART_VERTEX_START = np.append(_FACES[_PART_FACE_START[:-1]].min(axis=1), NUM_VERTICES)
 
 
-def _first_unit(candidates: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(..., 3): the first of candidates (..., K, 3) of non-zero length, normalised."""
-    first = candidates[..., 0, :]
-    length = np.sqrt(np.einsum("...i,...i->...", first, first))
-    out = first / np.maximum(length, _EPS)[..., None]
-    degenerate = length <= _EPS
-    if candidates.shape[-2] > 1 and degenerate.any():  # rare: fall back only where needed
-        out[degenerate] = _first_unit(candidates[degenerate][:, 1:])
-    return out
-
-
-def _first_across(candidates: NDArray[np.float64], axis: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(..., 3): the first of candidates (..., K, 3) not parallel to the unit axis (..., 3), made
-    perpendicular to it and normalised."""
-    lead = np.broadcast_shapes(candidates.shape[:-2], axis.shape[:-1])
-    first = candidates[..., 0, :]
-    across = first - np.einsum("...i,...i->...", first, axis)[..., None] * axis
-    length = np.sqrt(np.einsum("...i,...i->...", across, across))
-    out = np.broadcast_to(across / np.maximum(length, _EPS)[..., None], lead + (3,)).copy()
-    degenerate = np.broadcast_to(length <= _EPS, lead)
-    if candidates.shape[-2] > 1 and degenerate.any():  # rare: fall back only where needed
-        rest = np.broadcast_to(candidates, lead + candidates.shape[-2:])[degenerate][:, 1:]
-        out[degenerate] = _first_across(rest, np.broadcast_to(axis, lead + (3,))[degenerate])
-    return out
-
-
-def _cross(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """a x b over the last axis (np.cross costs more on small arrays)."""
-    return a[..., [1, 2, 0]] * b[..., [2, 0, 1]] - a[..., [2, 0, 1]] * b[..., [1, 2, 0]]
-
-
-_FORWARD, _UP, _LEFT, _Z, _DOWN = range(5)  # rows of the per-humanoid basis in _rig
-_PAIRS = np.array(
+_SHOULDER, _ELBOW, _HIP, _KNEE, _ANKLE = range(5)  # rows of _JOINTS
+_JOINTS = np.array(  # keypoint index of each joint, (joint, side: left, right)
     [
         [KEYPOINT_INDEX[f"{side}_{joint}"] for side in ("left", "right")]
         for joint in ("shoulder", "elbow", "thigh", "knee", "ankle")
     ]
 )
-_SHOULDER, _ELBOW, _HIP, _KNEE, _ANKLE = range(5)
+_MIDDLE, _NECK = KEYPOINT_INDEX["middle"], KEYPOINT_INDEX["neck"]
+_PELVIS, _CHEST, _NECK_PART, _HEAD = (PART_NAMES.index(name) for name in ("pelvis", "chest", "neck", "head"))
+# Left part of each pair; the right one follows it.
+_UPPER_ARM, _FOREARM, _THIGH, _SHIN, _FOOT = (
+    PART_NAMES.index(f"left_{name}") for name in ("upper_arm", "forearm", "thigh", "shin", "foot")
+)
+_COS_FLEXION, _SIN_FLEXION = float(np.cos(ELBOW_FLEXION_RAD)), float(np.sin(ELBOW_FLEXION_RAD))
+
+_Vector = tuple[float, float, float]
 
 
+@numba.njit(cache=True)
+def _add(a: _Vector, b: _Vector) -> _Vector:
+    return a[0] + b[0], a[1] + b[1], a[2] + b[2]
+
+
+@numba.njit(cache=True)
+def _sub(a: _Vector, b: _Vector) -> _Vector:
+    return a[0] - b[0], a[1] - b[1], a[2] - b[2]
+
+
+@numba.njit(cache=True)
+def _scale(factor: float, a: _Vector) -> _Vector:
+    return factor * a[0], factor * a[1], factor * a[2]
+
+
+@numba.njit(cache=True)
+def _dot(a: _Vector, b: _Vector) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@numba.njit(cache=True)
+def _cross(a: _Vector, b: _Vector) -> _Vector:
+    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
+
+
+@numba.njit(cache=True)
+def _length(a: _Vector) -> float:
+    return np.sqrt(_dot(a, a))
+
+
+@numba.njit(cache=True)
+def _divide(a: _Vector, divisor: float) -> _Vector:
+    """a / divisor, as a times 1 / divisor (one division instead of three)."""
+    inverse = 1.0 / divisor
+    return a[0] * inverse, a[1] * inverse, a[2] * inverse
+
+
+@numba.njit(cache=True)
+def _unit(a: _Vector) -> _Vector:
+    """a normalised; a / _EPS where it is no longer than _EPS."""
+    length = _length(a)
+    return _divide(a, _EPS if length <= _EPS else length)
+
+
+@numba.njit(cache=True)
+def _unit_or(a: _Vector, fallback: _Vector) -> _Vector:
+    """a normalised, or the fallback `_unit` where a is no longer than _EPS."""
+    length = _length(a)
+    return _unit(fallback) if length <= _EPS else _divide(a, length)
+
+
+@numba.njit(cache=True)
+def _across(a: _Vector, axis: _Vector) -> _Vector:
+    """a made perpendicular to the unit axis."""
+    return _sub(a, _scale(_dot(a, axis), axis))
+
+
+@numba.njit(cache=True)
+def _unit_across(a: _Vector, fallback: _Vector, axis: _Vector) -> _Vector:
+    """a made perpendicular to the unit axis and normalised; the fallback so where a is parallel."""
+    return _unit_or(_across(a, axis), _across(fallback, axis))
+
+
+@numba.njit(cache=True)
+def _unit_across_either(a: _Vector, fallback: _Vector, last: _Vector, axis: _Vector) -> _Vector:
+    """As `_unit_across`, with a second fallback, last."""
+    across = _across(a, axis)
+    length = _length(across)
+    return _unit_across(fallback, last, axis) if length <= _EPS else _divide(across, length)
+
+
+@numba.njit(cache=True)
+def _keypoint(kp: NDArray[np.float64], index: int) -> _Vector:
+    return kp[index, 0], kp[index, 1], kp[index, 2]
+
+
+@numba.njit(cache=True)
+def _put_part(
+    out: NDArray[np.float64], part: int, end0: _Vector, end1: _Vector, along: _Vector, lateral: _Vector,
+    lateral_fallback: _Vector,
+) -> None:
+    """Writes the part's frames (2, 4, 3) into out: the unit axis along it (end 0 -> end 1), the
+    unit lateral axis across it (lateral, else lateral_fallback), the second across axis, the
+    centres end0 and end1 of its caps."""
+    lateral_unit = _unit_across(lateral, lateral_fallback, along)
+    rows = (lateral_unit, _cross(along, lateral_unit), along)
+    for end, centre in ((0, end0), (1, end1)):
+        for row in range(3):
+            for i in range(3):
+                out[part, end, row, i] = rows[row][i]
+        for i in range(3):
+            out[part, end, 3, i] = centre[i]
+
+
+@numba.njit(cache=True)
+def _rig_one(kp: NDArray[np.float64], out: NDArray[np.float64]) -> None:
+    """Writes `_rig` of one humanoid's keypoints (12, 3) into out (P, 2, 4, 3)."""
+    forward_x, forward_y, _ = forward_and_source(kp, 0.0, 0.0)  # simgen.heading's, with no velocity
+    forward, left, z = (forward_x, forward_y, 0.0), (-forward_y, forward_x, 0.0), (0.0, 0.0, 1.0)
+    middle, neck = _keypoint(kp, _MIDDLE), _keypoint(kp, _NECK)
+    up = _unit_or(_sub(neck, middle), z)
+    down = (-up[0], -up[1], -up[2])
+    for side in range(2):
+        shoulder, elbow = _keypoint(kp, _JOINTS[_SHOULDER, side]), _keypoint(kp, _JOINTS[_ELBOW, side])
+        hip, knee = _keypoint(kp, _JOINTS[_HIP, side]), _keypoint(kp, _JOINTS[_KNEE, side])
+        ankle = _keypoint(kp, _JOINTS[_ANKLE, side])
+        upper_arm, shin = _unit_or(_sub(elbow, shoulder), down), _unit_or(_sub(ankle, knee), down)
+        # The forearm hangs from the elbow nearer the body's mid-plane than the upper arm does, bent
+        # towards the front (else up, else left).
+        sideways = _scale(_dot(upper_arm, left), left)
+        straight = _unit(_sub(upper_arm, _scale(1.0 - _FOREARM_SIDEWAYS, sideways)))
+        bend = _unit_across_either(forward, up, left, straight)
+        forearm = _add(_scale(_COS_FLEXION, straight), _scale(_SIN_FLEXION, bend))
+        # The foot points forward, else up, else left, square to the shin, and lies flat while the
+        # ankle is near the ground.
+        square = _unit_across_either(forward, z, left, shin)
+        free = (ankle[2] - _FOOT_FLAT_BELOW_M) / (_FOOT_FREE_ABOVE_M - _FOOT_FLAT_BELOW_M)
+        if free < 0.0:
+            free = 0.0
+        elif free > 1.0:
+            free = 1.0
+        foot = _unit_or(_add(_scale(1.0 - free, forward), _scale(free, square)), square)
+        sole = _unit_across(shin, (0.0, 0.0, -1.0), foot)  # from the ankle towards the sole
+        heel = _add(_add(ankle, _scale(_HEEL_CENTRE_M[0], foot)), _scale(_HEEL_CENTRE_M[1], sole))
+        toe = _add(_add(ankle, _scale(_TOE_CENTRE_M[0], foot)), _scale(_TOE_CENTRE_M[1], sole))
+        hand = _add(elbow, _scale(_HAND_CENTRE_M, forearm))
+        # Lateral axes: the body's left (the feet: their own), else forward. upper_arm, forearm, shin,
+        # foot and up are unit vectors already (up to rounding); only the thigh's axis is normalised.
+        _put_part(out, _UPPER_ARM + side, shoulder, elbow, upper_arm, left, forward)
+        _put_part(out, _FOREARM + side, elbow, hand, forearm, left, forward)
+        _put_part(out, _THIGH + side, hip, knee, _unit_or(_sub(knee, hip), up), left, forward)
+        _put_part(out, _SHIN + side, knee, ankle, shin, left, forward)
+        _put_part(out, _FOOT + side, heel, toe, foot, _cross(foot, sole), forward)
+    # The pelvis and the chest follow the hips and the shoulders lines, else the body's left.
+    left_hip, right_hip = _keypoint(kp, _JOINTS[_HIP, 0]), _keypoint(kp, _JOINTS[_HIP, 1])
+    hip_centre = _scale(0.5, _add(left_hip, right_hip))
+    pelvis = _unit_or(_sub(middle, hip_centre), up)
+    _put_part(out, _PELVIS, hip_centre, middle, pelvis, _sub(left_hip, right_hip), left)
+    shoulders = _sub(_keypoint(kp, _JOINTS[_SHOULDER, 0]), _keypoint(kp, _JOINTS[_SHOULDER, 1]))
+    _put_part(out, _CHEST, middle, _add(middle, _scale(_CHEST_LENGTH_M, up)), up, shoulders, left)
+    neck_low, neck_high = _sub(neck, _scale(_NECK_BELOW_M, up)), _add(neck, _scale(_NECK_ABOVE_M, up))
+    _put_part(out, _NECK_PART, neck_low, neck_high, up, left, forward)
+    front = _unit_across_either(forward, z, left, up)
+    head = _add(_add(neck, _scale(_HEAD_CENTRE_UP_M, up)), _scale(_HEAD_CENTRE_FORWARD_M, front))
+    head_low, head_high = _sub(head, _scale(_HEAD_HALF_SPAN_M, up)), _add(head, _scale(_HEAD_HALF_SPAN_M, up))
+    _put_part(out, _HEAD, head_low, head_high, up, left, forward)
+
+
+@numba.njit(cache=True)
 def _rig(kp: NDArray[np.float64]) -> NDArray[np.float64]:
     """(H, P, 2, 4, 3): per end of every part of humanoids (H, 12, 3), its unit frame and centre.
 
@@ -257,100 +386,10 @@ def _rig(kp: NDArray[np.float64]) -> NDArray[np.float64]:
     (end 0 -> end 1), and the centre of the end's cap; the template's unit sphere, scaled by
     the part's half-axes, maps through them.
     """
-    n = len(kp)
-    middle, neck = kp[:, KEYPOINT_INDEX["middle"]], kp[:, KEYPOINT_INDEX["neck"]]
-    joints = kp[:, _PAIRS]  # (H, 5, 2, 3): shoulders, elbows, hips, knees, ankles; left, right
-    basis = np.zeros((n, 5, 3))
-    basis[:, _FORWARD] = heading(kp).forward
-    basis[:, _LEFT, 0], basis[:, _LEFT, 1] = -basis[:, _FORWARD, 1], basis[:, _FORWARD, 0]
-    basis[:, _Z, 2] = 1.0
-    basis[:, _UP] = _first_unit(np.stack([neck - middle, basis[:, _Z]], axis=1))
-    basis[:, _DOWN] = -basis[:, _UP]
-    forward, up, left = basis[:, _FORWARD], basis[:, _UP], basis[:, _LEFT]
-
-    # Upper arms and shins, (H, limb, side, 3).
-    limbs = np.empty((n, 2, 2, 2, 3))
-    limbs[:, :, :, 0] = joints[:, [_ELBOW, _ANKLE]] - joints[:, [_SHOULDER, _KNEE]]
-    limbs[:, :, :, 1] = basis[:, None, None, _DOWN]
-    limbs = _first_unit(limbs)
-    upper_arm, shin = limbs[:, 0].copy(), limbs[:, 1]
-    # The forearms hang from the elbows nearer the body's mid-plane than the upper arms do, bent
-    # towards the front (else up, else left). The feet point forward, else up, else left,
-    # square to the shins, and lie flat while the ankles are near the ground.
-    sideways = np.einsum("hsi,hi->hs", upper_arm, left)[..., None] * left[:, None]
-    limbs[:, 0] = _first_unit((upper_arm - (1.0 - _FOREARM_SIDEWAYS) * sideways)[:, :, None])
-    across = _first_across(basis[:, [[_FORWARD, _UP, _LEFT], [_FORWARD, _Z, _LEFT]]][:, :, None], limbs)
-    forearm = np.cos(ELBOW_FLEXION_RAD) * limbs[:, 0] + np.sin(ELBOW_FLEXION_RAD) * across[:, 0]
-    ankles = joints[:, _ANKLE]
-    lift = (ankles[..., 2:] - _FOOT_FLAT_BELOW_M) / (_FOOT_FREE_ABOVE_M - _FOOT_FLAT_BELOW_M)
-    free = np.clip(lift, 0.0, 1.0)
-    feet = np.stack([(1.0 - free) * forward[:, None] + free * across[:, 1], across[:, 1]], axis=2)
-    foot = _first_unit(feet)
-    sole = np.stack([shin, np.broadcast_to(-basis[:, None, _Z], shin.shape)], axis=2)
-    down = _first_across(sole, foot)  # (H, side, 3): from the ankle towards the sole
-    heel = ankles + _HEEL_CENTRE_M[0] * foot + _HEEL_CENTRE_M[1] * down
-    toe = ankles + _TOE_CENTRE_M[0] * foot + _TOE_CENTRE_M[1] * down
-    hand = joints[:, _ELBOW] + _HAND_CENTRE_M * forearm
-    head = (
-        neck
-        + _HEAD_CENTRE_UP_M * up
-        + _HEAD_CENTRE_FORWARD_M * _first_across(basis[:, [_FORWARD, _Z, _LEFT]], up)
-    )
-    shoulder_centre, hip_centre = joints[:, _SHOULDER].mean(axis=1), joints[:, _HIP].mean(axis=1)
-
-    def single(*rows: NDArray[np.float64]) -> NDArray[np.float64]:  # (H, 3) each -> (H, k, 3)
-        return np.stack(rows, axis=1)
-
-    # Per part (in PART_NAMES order): end 0, end 1, along, lateral reference at each end.
-    p0 = np.concatenate(
-        [
-            single(hip_centre, middle, neck - _NECK_BELOW_M * up, head - _HEAD_HALF_SPAN_M * up),
-            joints[:, _SHOULDER],
-            joints[:, _ELBOW],
-            joints[:, _HIP],
-            joints[:, _KNEE],
-            heel,
-        ],
-        axis=1,
-    )
-    p1 = np.concatenate(
-        [
-            single(middle, middle + _CHEST_LENGTH_M * up, neck + _NECK_ABOVE_M * up, head + _HEAD_HALF_SPAN_M * up),
-            joints[:, _ELBOW],
-            hand,
-            joints[:, _KNEE],
-            ankles,
-            toe,
-        ],
-        axis=1,
-    )
-    along = np.empty(p0.shape[:2] + (2, 3))  # (H, P, candidate, 3)
-    along[:, :, 0] = np.concatenate(
-        [
-            single(middle - hip_centre, up, up, up),
-            upper_arm,
-            forearm,
-            joints[:, _KNEE] - joints[:, _HIP],
-            shin,
-            foot,
-        ],
-        axis=1,
-    )
-    along[:, :, 1] = up[:, None]
-    along = _first_unit(along)
-    # Lateral axes: the body's left (the feet: their own), else forward; the pelvis and the chest
-    # follow the hips and the shoulders lines.
-    refs = np.empty_like(p0, shape=p0.shape[:2] + (2, 3))
-    refs[:, :, 0] = left[:, None]
-    refs[:, -2:, 0] = _cross(foot, down)
-    refs[:, :, 1] = forward[:, None]
-    refs[:, :2, 0] = joints[:, [_HIP, _SHOULDER], 0] - joints[:, [_HIP, _SHOULDER], 1]
-    refs[:, :2, 1] = left[:, None]
-    affine = np.empty(p0.shape[:2] + (2, 4, 3))
-    lateral = _first_across(refs, along)
-    affine[:, :, :, :3] = np.stack([lateral, _cross(along, lateral), along], axis=-2)[:, :, None]
-    affine[:, :, 0, 3], affine[:, :, 1, 3] = p0, p1
-    return affine
+    out = np.empty((len(kp), _NUM_PARTS, 2, 4, 3))
+    for h in range(len(kp)):
+        _rig_one(kp[h], out[h])
+    return out
 
 
 def _team_ids(teams: ArrayLike, count: int) -> NDArray[np.intp]:
@@ -381,8 +420,23 @@ def body_meshes(keypoints: ArrayLike, teams: ArrayLike) -> BodyMeshes:
 def part_frames(keypoints: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Rigid frame of every part of humanoids (H, 12, 3): rotation (H, P, 3, 3) from part to pitch
     coordinates, and origin (H, P, 3), metres (the centre of the part's end-0 cap)."""
-    frame = _rig(as_keypoints(keypoints))[:, :, 0]
-    return np.swapaxes(frame[:, :, :3], -1, -2), frame[:, :, 3]
+    return _part_frames(as_keypoints(keypoints))
+
+
+@numba.njit(cache=True)
+def _part_frames(kp: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """`part_frames` without `_rig`'s (H, P, 2, 4, 3) array: the renderer poses thousands at a time."""
+    rotation = np.empty((len(kp), _NUM_PARTS, 3, 3))
+    origin = np.empty((len(kp), _NUM_PARTS, 3))
+    ends = np.empty((_NUM_PARTS, 2, 4, 3))
+    for h in range(len(kp)):
+        _rig_one(kp[h], ends)
+        for p in range(_NUM_PARTS):
+            for a in range(3):
+                for b in range(3):
+                    rotation[h, p, a, b] = ends[p, 0, b, a]  # the frame's rows are the part's axes
+                origin[h, p, a] = ends[p, 0, 3, a]
+    return rotation, origin
 
 
 def part_templates(keypoints: ArrayLike, teams: ArrayLike) -> list[tuple[NDArray, NDArray, NDArray]]:
@@ -401,6 +455,36 @@ def part_templates(keypoints: ArrayLike, teams: ArrayLike) -> list[tuple[NDArray
     return templates
 
 
+@numba.njit(cache=True)
+def _extent_kernel(
+    kp: NDArray[np.float64], directions: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """`body_extent` of humanoids (H, 12, 3) along directions (H, K, 3)."""
+    low, high = np.empty(directions.shape[:2]), np.empty(directions.shape[:2])
+    rig = np.empty((_NUM_PARTS, 2, 4, 3))
+    for h in range(len(kp)):
+        _rig_one(kp[h], rig)
+        for k in range(directions.shape[1]):
+            d = (directions[h, k, 0], directions[h, k, 1], directions[h, k, 2])
+            lowest, highest = np.inf, -np.inf
+            for p in range(_NUM_PARTS):
+                for end in range(2):
+                    centre = rig[p, end, 3, 0] * d[0] + rig[p, end, 3, 1] * d[1] + rig[p, end, 3, 2] * d[2]
+                    squared = 0.0  # of the reach: the cap's half-axes projected on d
+                    for axis in range(3):
+                        projected = (
+                            rig[p, end, axis, 0] * d[0] + rig[p, end, axis, 1] * d[1] + rig[p, end, axis, 2] * d[2]
+                        ) * _HALF_AXES_M[p, end, axis]
+                        squared += projected * projected
+                    near, far = centre - np.sqrt(squared), centre + np.sqrt(squared)
+                    if near < lowest or np.isnan(near):  # NaN wins, as in np.min
+                        lowest = near
+                    if far > highest or np.isnan(far):
+                        highest = far
+            low[h, k], high[h, k] = lowest, highest
+    return low, high
+
+
 def body_extent(
     keypoints: ArrayLike, directions: ArrayLike
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -410,9 +494,8 @@ def body_extent(
     hold the meshes (cap vertices lie on them, band vertices between them), so the mesh
     reaches at most this far, and less by no more than its chord error (under 1 cm).
     """
-    affine = _rig(as_keypoints(keypoints))
+    kp = as_keypoints(keypoints)
     d = np.asarray(directions, dtype=np.float64)
-    centre = np.einsum("hpei,hki->hpek", affine[:, :, :, 3], d)
-    axes = np.einsum("hpeci,hki->hpeck", affine[:, :, :, :3], d) * _HALF_AXES_M[None, :, :, :, None]
-    reach = np.sqrt(np.einsum("hpeck,hpeck->hpek", axes, axes))
-    return (centre - reach).min(axis=(1, 2)), (centre + reach).max(axis=(1, 2))
+    if d.ndim != 3 or d.shape[2] != 3:
+        raise ValueError(f"directions must have shape (H, K, 3), got {d.shape}")
+    return _extent_kernel(kp, np.ascontiguousarray(np.broadcast_to(d, (len(kp),) + d.shape[1:])))
