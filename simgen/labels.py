@@ -101,16 +101,16 @@ class FrameLabels:
 
 
 def frame_labels(
-    keypoints: NDArray, velocity_mps: NDArray, track_id: NDArray, team: NDArray, role: NDArray, point_instance: NDArray
+    boxes: NDArray, keypoints: NDArray, velocity_mps: NDArray, track_id: NDArray, team: NDArray, role: NDArray, point_instance: NDArray
 ) -> FrameLabels:
-    """Boxes of humanoids (H, 12, 3) at the label time, with the number of points each got."""
-    boxes = boxes_from_keypoints(keypoints, velocity_mps)
-    ids, counts = np.unique(point_instance, return_counts=True)
+    """Labels of humanoids from their boxes (H, 7) (`boxes_from_keypoints`), keypoints (H, 12, 3) and
+    velocities at the label time, with the number of the frame's points (instance ids) each got."""
+    ids, counts = np.unique(point_instance[point_instance >= 0], return_counts=True)
     num_points = np.zeros(len(track_id), np.int32)
     found = np.isin(track_id, ids)
     num_points[found] = counts[np.searchsorted(ids, track_id[found])]
     return FrameLabels(
-        boxes=boxes.array.astype(np.float32),
+        boxes=np.asarray(boxes, np.float32),
         track_id=np.asarray(track_id, np.int32),
         team=np.asarray(team),
         role=np.asarray(role),

@@ -8,6 +8,7 @@ at 10 % reflectivity, 130 m at 20 %, 260 m at 80 %. All randomness comes from th
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field
@@ -19,7 +20,7 @@ class NoiseConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     range_sigma_m: float = Field(0.02, ge=0, le=1, description="Gaussian range noise, 1 sigma, metres.")
-    angle_sigma_deg: float = Field(0.03, ge=0, le=1, description="Gaussian direction noise per axis, 1 sigma, degrees.")
+    angle_sigma_deg: float = Field(0.03, ge=0, le=1, description="Gaussian direction noise per axis across the beam, 1 sigma, degrees.")
     divergence_deg: tuple[float, float] = Field(
         (0.03, 0.28), description="Full beam divergence (horizontal, vertical), degrees."
     )
@@ -34,27 +35,70 @@ class NoiseConfig(BaseModel):
     enabled: bool = Field(True, description="False: exact ranges and directions, no dropout (range limits still apply).")
 
 
-def max_range_m(reflectivity: NDArray, cos_incidence: NDArray, config: NoiseConfig) -> NDArray[np.float64]:
+@numba.njit(cache=True)
+def max_range_m(reflectivity: float, cos_incidence: float, max_range_at_10pct_m: float) -> float:
     """Detection range for a Lambertian target: received power ~ reflectivity * cos(incidence) / range^2.
 
     sqrt(0.2 / 0.1) * 90 m = 127 m and sqrt(0.8 / 0.1) * 90 m = 255 m, as the datasheet's 130 m and 260 m.
     """
-    effective = np.clip(reflectivity * cos_incidence, 1e-6, None)
-    return config.max_range_at_10pct_m * np.sqrt(effective / 0.1)
+    return max_range_at_10pct_m * np.sqrt(max(reflectivity * cos_incidence, 1e-6) / 0.1)
 
 
-def intensity(reflectivity: NDArray, cos_incidence: NDArray) -> NDArray[np.uint8]:
-    """Livox-style calibrated reflectivity, 0-150 for diffuse targets (0-100 %), as uint8 0-255."""
-    value = 150.0 * np.clip(reflectivity, 0, 1) * np.clip(cos_incidence, 0, 1)
-    return np.clip(np.round(value), 0, 255).astype(np.uint8)
+@numba.njit(cache=True)
+def intensity(reflectivity: float, cos_incidence: float) -> int:
+    """Livox-style calibrated reflectivity, 0-150 for diffuse targets (0-100 %), as 0-255."""
+    value = 150.0 * min(max(reflectivity, 0.0), 1.0) * min(max(cos_incidence, 0.0), 1.0)
+    return int(min(max(np.round(value), 0.0), 255.0))
 
 
-def jitter_directions(directions: NDArray, config: NoiseConfig, rng: np.random.Generator) -> NDArray[np.float64]:
-    """Directions with angular noise (Gaussian, per axis); unit vectors in, unit vectors out."""
-    if not config.enabled or config.angle_sigma_deg == 0:
-        return directions
-    noisy = directions + rng.normal(0.0, np.radians(config.angle_sigma_deg), directions.shape)
-    return noisy / np.linalg.norm(noisy, axis=1, keepdims=True)
+@numba.njit(cache=True)
+def noisy_returns(origins, directions, t_m, reflectivity, cos_incidence, subrays, min_range_m, max_range_at_10pct_m, dropout, range_sigma_m, angle_sigma_rad, rng):
+    """The returns of a sweep's shots (origins, unit directions (N, 3)), with noise.
+
+    The hits (t_m, reflectivity, cos_incidence) come `subrays` per shot, consecutive; a shot
+    returns its nearest if that lies within [min_range_m, `max_range_m`], unless lost with
+    probability `dropout`; its range then gets Gaussian noise (range_sigma_m) and its direction
+    Gaussian angular noise per axis across the beam (angle_sigma_rad). Random numbers are drawn
+    from rng point by point: dropout, range, then the two angles.
+
+    Returns (hit index (P,), points (P, 3) float32 metres, intensity (P,) uint8, missed, dropped).
+    """
+    shots = len(origins)
+    ray = np.empty(shots, np.int64)
+    points = np.empty((shots, 3), np.float32)
+    value = np.empty(shots, np.uint8)
+    count = missed = dropped = 0
+    for shot in range(shots):
+        k = shot * subrays
+        for j in range(k + 1, k + subrays):
+            if t_m[j] < t_m[k]:
+                k = j
+        t = t_m[k]
+        if not (min_range_m <= t <= max_range_m(reflectivity[k], cos_incidence[k], max_range_at_10pct_m)):
+            missed += 1
+            continue
+        if dropout > 0.0 and rng.random() < dropout:
+            dropped += 1
+            continue
+        if range_sigma_m > 0.0:
+            t += range_sigma_m * rng.standard_normal()
+        dx, dy, dz = directions[shot, 0], directions[shot, 1], directions[shot, 2]
+        if angle_sigma_rad > 0.0:
+            # Across the beam: horizontal (d x z), then (d x horizontal); any unit pair for a vertical beam.
+            horizontal = np.sqrt(dx * dx + dy * dy)
+            ux, uy = (dy / horizontal, -dx / horizontal) if horizontal > 1e-12 else (1.0, 0.0)
+            vx, vy, vz = -dz * uy, dz * ux, dx * uy - dy * ux
+            a, b = angle_sigma_rad * rng.standard_normal(), angle_sigma_rad * rng.standard_normal()
+            dx, dy, dz = dx + a * ux + b * vx, dy + a * uy + b * vy, dz + b * vz
+            norm = np.sqrt(dx * dx + dy * dy + dz * dz)
+            dx, dy, dz = dx / norm, dy / norm, dz / norm
+        ray[count] = k
+        points[count, 0] = origins[shot, 0] + t * dx
+        points[count, 1] = origins[shot, 1] + t * dy
+        points[count, 2] = origins[shot, 2] + t * dz
+        value[count] = intensity(reflectivity[k], cos_incidence[k])
+        count += 1
+    return ray[:count], points[:count], value[:count], missed, dropped
 
 
 def subray_offsets_rad(config: NoiseConfig) -> NDArray[np.float64]:

@@ -11,10 +11,11 @@ import math
 from typing import Iterator
 
 import numpy as np
+from numpy.typing import NDArray
 
 from simgen.errors import UserError
 from simgen.frames import LabelledFrame
-from simgen.labels import frame_labels
+from simgen.labels import boxes_from_keypoints, frame_labels
 from simgen.motion import MotionClip
 from simgen.render import World, interpolate_clip, render_frame
 from simgen.rig import frame_rays
@@ -23,6 +24,7 @@ from simgen.scene import build_static_scene
 from simgen.skeleton import KEYPOINT_INDEX
 
 VELOCITY_DT_S = 0.05  # half-width of the central difference for label velocities
+LABEL_CHUNK_FRAMES = 50  # frames whose labels are computed at once
 
 
 def clip_name(clip_index: int) -> str:
@@ -49,6 +51,17 @@ def frame_count(scenario: Scenario, clip: MotionClip) -> int:
     return wanted
 
 
+def label_poses(clip: MotionClip, label_times_s: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+    """Keypoints (F, H, 12, 3), velocities of `middle` (F, H, 3) in m/s and boxes (F, H, 7) at F label times (s)."""
+    times = np.clip(label_times_s[:, None] + np.array([-VELOCITY_DT_S, 0.0, VELOCITY_DT_S]), clip.time_s[0], clip.time_s[-1])
+    keypoints, _ = interpolate_clip(clip, times.reshape(-1))
+    keypoints = keypoints.reshape(len(times), 3, clip.num_humanoids, 12, 3)
+    middle = KEYPOINT_INDEX["middle"]
+    velocity = (keypoints[:, 2, :, middle] - keypoints[:, 0, :, middle]) / (times[:, 2] - times[:, 0])[:, None, None]
+    boxes = boxes_from_keypoints(keypoints[:, 1].reshape(-1, 12, 3), velocity.reshape(-1, 3)).array
+    return keypoints[:, 1], velocity, boxes.reshape(len(times), clip.num_humanoids, 7)
+
+
 def render_clip(scenario: Scenario, clip: MotionClip, clip_index: int) -> Iterator[LabelledFrame]:
     """Yield the clip's labelled frames in order."""
     scene = scenario.scene
@@ -57,14 +70,13 @@ def render_clip(scenario: Scenario, clip: MotionClip, clip_index: int) -> Iterat
     start = float(clip.time_s[0])
     specs = scenario.sensor_specs()
     for index in range(frame_count(scenario, clip)):
+        if index % LABEL_CHUNK_FRAMES == 0:  # labels of the next frames at once
+            label_times = start + (index + np.arange(LABEL_CHUNK_FRAMES) + 0.5) / rate
+            keypoints, velocity, boxes = label_poses(clip, label_times)
         frame_start = start + index / rate
         rays = frame_rays(scenario, specs, index, start)
         rng = np.random.default_rng(np.random.SeedSequence([scenario.seed, clip_index, index]))
         scan = render_frame(world, rays, frame_start, scenario.noise, rng)
-        label_time = frame_start + 0.5 / rate
-        times = np.clip(label_time + np.array([-VELOCITY_DT_S, 0.0, VELOCITY_DT_S]), clip.time_s[0], clip.time_s[-1])
-        keypoints, _ = interpolate_clip(clip, times)
-        middle = KEYPOINT_INDEX["middle"]
-        velocity = (keypoints[2][:, middle] - keypoints[0][:, middle]) / (times[2] - times[0])
-        labels = frame_labels(keypoints[1], velocity, clip.track_id, clip.team, clip.role, scan.instance_id)
-        yield LabelledFrame(clip_name(clip_index), index, frame_start, label_time, scan, labels)
+        j = index % LABEL_CHUNK_FRAMES
+        labels = frame_labels(boxes[j], keypoints[j], velocity[j], clip.track_id, clip.team, clip.role, scan.instance_id)
+        yield LabelledFrame(clip_name(clip_index), index, frame_start, float(label_times[j]), scan, labels)

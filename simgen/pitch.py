@@ -1,11 +1,12 @@
 """The pitch: an analytic ground plane (z = 0) with painted lines (IFAB Laws of the Game sizes).
 
-No mesh: a ray's ground hit is solved in closed form, and `on_line` says whether the hit point
-is on a painted line. Pitch frame of `simgen.skeleton`; metres.
+No mesh: a ray's ground hit is solved in closed form (`simgen.render`), and `on_line_at` says
+whether the hit point is on a painted line (compiled: the renderer asks it for every ray). Pitch frame of `simgen.skeleton`; metres.
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -22,40 +23,51 @@ SPOT_RADIUS_M = 0.11
 CORNER_ARC_RADIUS_M = 1.0
 
 
-def ground_hit(origins: NDArray, directions: NDArray) -> NDArray[np.float64]:
-    """Ray parameter t where origin + t * direction meets z = 0; inf for rays not going down."""
-    dz = directions[:, 2].astype(np.float64)
-    t = np.full(len(directions), np.inf)
-    down = dz < 0
-    t[down] = -origins[down, 2] / dz[down]
-    return t
+@numba.njit(cache=True)
+def _near(value: float, target: float) -> bool:
+    return abs(value - target) <= LINE_WIDTH_M / 2
 
 
-def _near(value: NDArray, target: float) -> NDArray[np.bool_]:
-    return np.abs(value - target) <= LINE_WIDTH_M / 2
+@numba.njit(cache=True)
+def _near_circle(distance2: float, radius: float) -> bool:
+    """Whether a point at squared distance `distance2` from a circle's centre lies on its line."""
+    return (radius - LINE_WIDTH_M / 2) ** 2 <= distance2 <= (radius + LINE_WIDTH_M / 2) ** 2
 
 
-def on_line(x_m: NDArray, y_m: NDArray) -> NDArray[np.bool_]:
-    """True where a ground point (x, y) lies on a painted line (lines are 0.12 m wide)."""
-    x = np.asarray(x_m, dtype=np.float64)
-    y = np.asarray(y_m, dtype=np.float64)
-    ax, ay = np.abs(x), np.abs(y)
-    inside_x = ax <= HALF_LENGTH_M + LINE_WIDTH_M / 2
-    inside_y = ay <= HALF_WIDTH_M + LINE_WIDTH_M / 2
-    lines = (_near(ay, HALF_WIDTH_M) & inside_x) | (_near(ax, HALF_LENGTH_M) & inside_y)
-    lines |= _near(x, 0.0) & inside_y
-    centre_distance = np.hypot(x, y)
-    lines |= _near(centre_distance, CENTRE_CIRCLE_RADIUS_M) | (centre_distance <= SPOT_RADIUS_M)
+@numba.njit(cache=True)
+def on_line_at(x: float, y: float) -> bool:
+    """True where the ground point (x, y), metres, lies on a painted line (lines are 0.12 m wide)."""
+    ax, ay = abs(x), abs(y)
+    half_line = LINE_WIDTH_M / 2
+    if ax > HALF_LENGTH_M + half_line or ay > HALF_WIDTH_M + half_line:
+        return False
+    if _near(ay, HALF_WIDTH_M) or _near(ax, HALF_LENGTH_M) or _near(x, 0.0):
+        return True
+    centre2 = x * x + y * y
+    if _near_circle(centre2, CENTRE_CIRCLE_RADIUS_M) or centre2 <= SPOT_RADIUS_M**2:
+        return True
     # Penalty and goal areas: the line parallel to the goal line and the two sides.
     for depth, half_width in ((PENALTY_AREA_DEPTH_M, PENALTY_AREA_HALF_WIDTH_M), (GOAL_AREA_DEPTH_M, GOAL_AREA_HALF_WIDTH_M)):
         front = HALF_LENGTH_M - depth
-        lines |= _near(ax, front) & (ay <= half_width + LINE_WIDTH_M / 2)
-        lines |= _near(ay, half_width) & (ax >= front - LINE_WIDTH_M / 2) & (ax <= HALF_LENGTH_M)
-    spot_x = HALF_LENGTH_M - PENALTY_SPOT_M
-    spot_distance = np.hypot(ax - spot_x, y)
-    lines |= spot_distance <= SPOT_RADIUS_M
+        if _near(ax, front) and ay <= half_width + half_line:
+            return True
+        if _near(ay, half_width) and front - half_line <= ax <= HALF_LENGTH_M:
+            return True
+    spot_x = ax - (HALF_LENGTH_M - PENALTY_SPOT_M)
+    spot2 = spot_x * spot_x + y * y
+    if spot2 <= SPOT_RADIUS_M**2:
+        return True
     # Penalty arc: the part of the 9.15 m circle round the spot outside the penalty area.
-    lines |= _near(spot_distance, CENTRE_CIRCLE_RADIUS_M) & (ax < HALF_LENGTH_M - PENALTY_AREA_DEPTH_M)
-    corner_distance = np.hypot(ax - HALF_LENGTH_M, ay - HALF_WIDTH_M)
-    lines |= _near(corner_distance, CORNER_ARC_RADIUS_M) & (ax <= HALF_LENGTH_M) & (ay <= HALF_WIDTH_M)
-    return lines
+    if _near_circle(spot2, CENTRE_CIRCLE_RADIUS_M) and ax < HALF_LENGTH_M - PENALTY_AREA_DEPTH_M:
+        return True
+    corner_x, corner_y = ax - HALF_LENGTH_M, ay - HALF_WIDTH_M
+    return _near_circle(corner_x * corner_x + corner_y * corner_y, CORNER_ARC_RADIUS_M) and ax <= HALF_LENGTH_M and ay <= HALF_WIDTH_M
+
+
+@numba.njit(cache=True)
+def on_line(x_m: NDArray, y_m: NDArray) -> NDArray[np.bool_]:
+    """`on_line_at` over arrays of ground points (metres)."""
+    out = np.empty(len(x_m), np.bool_)
+    for i in range(len(x_m)):
+        out[i] = on_line_at(x_m[i], y_m[i])
+    return out

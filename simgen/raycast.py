@@ -3,10 +3,12 @@
 - The ground (z = 0) is solved in closed form: most rays end there and need no mesh.
 - Static meshes (goals, nets, boards, stand) sit in one Embree scene built once.
 - Bodies are rigid parts (`simgen.body`); their templates sit in a second Embree scene, built once,
-  each far from the others. A ray that may hit a part is moved into that part's frame (the
+  on a grid with their bounding spheres apart. A ray that may hit a part is moved into that part's frame (the
   inverse of the part's rigid pose at the ray's own time slice), started where it enters the
   part's bounding sphere, and cast against the template: one Embree call for all such rays.
-  Rigid motions keep ray parameters, so the hit distance needs no conversion.
+  Rigid motions keep ray parameters, so the hit distance needs no conversion. A hit is the ray's
+  own template's only if Embree's first hit is on it: other templates lie beyond its sphere.
+  Preparing those rays and folding the hits back are compiled loops (numba).
 
 Ray parameters t are in units of the (unit) direction, i.e. metres.
 """
@@ -15,11 +17,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import open3d as o3d
 from numpy.typing import NDArray
 
-TEMPLATE_SPACING_M = 100.0  # templates' distance from each other in their scene
+from simgen.buffers import grow
+
+TEMPLATE_GAP_M = 0.5  # between the bounding spheres of templates in their scene
+BOX_MARGIN_M = 1e-4  # round each template's box, against rounding
 
 
 @dataclass(frozen=True)
@@ -66,68 +72,140 @@ class StaticCaster:
         return Hits(t, primitive, normal)
 
 
-@dataclass(frozen=True)
-class PartHits:
-    """Hits of (ray, template) pairs on rigid templates."""
-
-    pair: NDArray[np.int64]  # (K,) index of the pair that hit
-    ray: NDArray[np.int64]  # (K,) index of the ray
-    face: NDArray[np.int64]  # (K,) triangle index over all templates (`PartCaster.face_start`)
-    t_m: NDArray[np.float64]  # (K,)
-    normal: NDArray[np.float64]  # (K, 3) pitch frame
-
-
 class PartCaster:
     """Rigid templates in one Embree scene, built once; rays are brought into each template's frame."""
 
     def __init__(self, templates: list[tuple[NDArray, NDArray]]):
         """templates: (vertices (V, 3) in the template's own frame, faces (F, 3)) each."""
-        spacing = TEMPLATE_SPACING_M * np.arange(len(templates))
-        self.offset = np.stack([spacing, np.zeros_like(spacing), np.zeros_like(spacing)], axis=1)
         vertex_start = np.cumsum([0] + [len(v) for v, _ in templates])
         self.face_start = np.cumsum([0] + [len(f) for _, f in templates])
-        self.centre = np.stack([(v.min(axis=0) + v.max(axis=0)) / 2 for v, _ in templates])
-        self.radius = np.array([np.linalg.norm(v - c, axis=1).max() for (v, _), c in zip(templates, self.centre)])
+        self.low = np.stack([v.min(axis=0) for v, _ in templates]) - BOX_MARGIN_M  # box round each template
+        self.high = np.stack([v.max(axis=0) for v, _ in templates]) + BOX_MARGIN_M
+        self.centre = (self.low + self.high) / 2
+        self.radius = np.array([np.linalg.norm(v - c, axis=1).max() for (v, _), c in zip(templates, self.centre)]) + BOX_MARGIN_M
+        # Templates on a cubic grid, their bounding spheres apart, near the scene's origin (float32).
+        side = int(np.ceil(len(templates) ** (1 / 3)))
+        cell = np.stack(np.unravel_index(np.arange(len(templates)), (side, side, side)), axis=1)
+        self.offset = cell * (2 * self.radius.max() + TEMPLATE_GAP_M) - self.centre
         self._scene = _scene(
             np.concatenate([v + o for (v, _), o in zip(templates, self.offset)]),
             np.concatenate([f + start for (_, f), start in zip(templates, vertex_start)]),
         )
 
-    def cast(self, origins, directions, ray, template, rotation, translation, t_max) -> PartHits:
-        """Cast K (ray, template) pairs; the template is posed by rotation (K, 3, 3), translation (K, 3).
+    def cast(self, origins, directions, t_max, pair_ray, pair_slice, pair_humanoid, rotation, translation) -> PartHits:
+        """Cast every part of the humanoid of each (ray, slice, humanoid) pair; parts posed by
+        rotation (S, H, P, 3, 3) and translation (S, H, P, 3), template p * H + h.
 
-        A pair is cast only if its ray enters the template's bounding sphere before t_max[ray], and
-        from that point on, so no other template can be reached first; hits beyond t_max are dropped.
+        A part is cast only if the ray enters its bounding sphere, then its box, before t_max[ray],
+        and from the box on, so no other template can be reached first; hits beyond t_max are dropped.
         """
-        pair = np.arange(len(ray))
-        centre_world = np.einsum("kij,kj->ki", rotation, self.centre[template]) + translation
-        o, d = origins[ray], directions[ray]
-        to_centre = centre_world - o
-        t_mid = np.einsum("ki,ki->k", to_centre, d)
-        half = np.sqrt(np.clip(self.radius[template] ** 2 - (np.einsum("ki,ki->k", to_centre, to_centre) - t_mid**2), 0, None))
-        keep = (half > 0) & (t_mid + half > 0) & (t_mid - half < t_max[ray])
-        pair, ray, template, rotation, translation = pair[keep], ray[keep], template[keep], rotation[keep], translation[keep]
-        o, d = o[keep], d[keep]
-        t_start = np.clip(t_mid[keep] - half[keep], 0, None)
-        # Part coordinates: R^T (x - translation), then the template's place in the scene.
-        local_o = np.einsum("kji,kj->ki", rotation, o + t_start[:, None] * d - translation) + self.offset[template]
-        local_d = np.einsum("kji,kj->ki", rotation, d)
-        t, face, normal = _cast(self._scene, local_o, local_d)
-        t_total = t + t_start
-        own = (face >= self.face_start[template]) & (face < self.face_start[template + 1])
-        hit = np.isfinite(t) & own & (t_total < t_max[ray])
-        normal_world = np.einsum("kij,kj->ki", rotation[hit], normal[hit])
-        return PartHits(pair[hit], ray[hit], face[hit], t_total[hit], normal_world)
+        local, ray, template, t_start = _part_rays(
+            origins, directions, t_max, pair_ray, pair_slice, pair_humanoid, rotation, translation, self.centre, self.radius, self.low, self.high, self.offset
+        )
+        result = self._scene.cast_rays(o3d.core.Tensor(local), nthreads=1)
+        return PartHits(
+            ray,
+            template,
+            t_start,
+            result["t_hit"].numpy(),
+            result["primitive_ids"].numpy(),
+            result["primitive_normals"].numpy(),
+            local[:, 3:],
+        )
 
 
-def argmin_per_group(num_groups: int, group: NDArray[np.int64], value: NDArray) -> NDArray[np.int64]:
-    """Per group (e.g. a ray), the index of its smallest value (e.g. nearest hit); -1 for empty groups."""
-    best = np.full(num_groups, -1, dtype=np.int64)
-    order = np.lexsort((value, group))
-    first = np.ones(len(order), dtype=bool)
-    first[1:] = group[order][1:] != group[order][:-1]
-    best[group[order][first]] = order[first]
-    return best
+@dataclass(frozen=True)
+class PartHits:
+    """What Embree returned for the K rays cast at templates, in template coordinates."""
+
+    ray: NDArray[np.int64]  # (K,) index of the ray
+    template: NDArray[np.int64]  # (K,)
+    t_start_m: NDArray[np.float64]  # (K,) where the cast began along the ray
+    t_hit_m: NDArray[np.float32]  # (K,) from t_start; inf: none
+    face: NDArray[np.uint32]  # (K,) triangle index over all templates (`PartCaster.face_start`)
+    normal: NDArray[np.float32]  # (K, 3) template frame
+    direction: NDArray[np.float32]  # (K, 3) the ray's direction, template frame
+
+
+@numba.njit(cache=True)
+def _part_rays(o, d, t_max, pair_ray, pair_slice, pair_humanoid, rotation, translation, centre, radius, low, high, offset):
+    """Per (pair, part) whose bounding sphere, then box (low, high in part coordinates), the ray
+    enters before t_max: the ray in template coordinates from its box entry, (K, 6) float32
+    origin + direction, its ray, template and t_start."""
+    num_slices, num_humanoids, num_parts = rotation.shape[:3]
+    # Bounding-sphere centres of the posed parts, pitch frame.
+    centre_world = np.empty((num_slices, num_humanoids, num_parts, 3))
+    for s in range(num_slices):
+        for h in range(num_humanoids):
+            for p in range(num_parts):
+                j = p * num_humanoids + h
+                for a in range(3):
+                    centre_world[s, h, p, a] = (
+                        rotation[s, h, p, a, 0] * centre[j, 0] + rotation[s, h, p, a, 1] * centre[j, 1] + rotation[s, h, p, a, 2] * centre[j, 2] + translation[s, h, p, a]
+                    )
+    capacity = max(16, 2 * len(pair_ray))
+    local = np.empty((capacity, 6), np.float32)
+    ray = np.empty(capacity, np.int64)
+    template = np.empty(capacity, np.int64)
+    t_start = np.empty(capacity, np.float64)
+    local_ray = np.empty(6)
+    count = 0
+    for k in range(len(pair_ray)):
+        i, s, h = pair_ray[k], pair_slice[k], pair_humanoid[k]
+        for p in range(num_parts):
+            j = p * num_humanoids + h
+            cx = centre_world[s, h, p, 0] - o[i, 0]
+            cy = centre_world[s, h, p, 1] - o[i, 1]
+            cz = centre_world[s, h, p, 2] - o[i, 2]
+            t_mid = cx * d[i, 0] + cy * d[i, 1] + cz * d[i, 2]
+            half2 = radius[j] ** 2 - (cx * cx + cy * cy + cz * cz - t_mid * t_mid)
+            if half2 <= 0.0:
+                continue
+            half = np.sqrt(half2)
+            if t_mid + half <= 0.0 or t_mid - half >= t_max[i]:
+                continue
+            # Part coordinates: R^T (x - translation); then the slab test against the part's box.
+            R, x = rotation[s, h, p], translation[s, h, p]
+            px, py, pz = o[i, 0] - x[0], o[i, 1] - x[1], o[i, 2] - x[2]
+            start, stop = 0.0, t_max[i]
+            for a in range(3):
+                origin_a = R[0, a] * px + R[1, a] * py + R[2, a] * pz
+                direction_a = R[0, a] * d[i, 0] + R[1, a] * d[i, 1] + R[2, a] * d[i, 2]
+                local_ray[a], local_ray[3 + a] = origin_a, direction_a
+                if direction_a != 0.0:
+                    near, far = (low[j, a] - origin_a) / direction_a, (high[j, a] - origin_a) / direction_a
+                    start, stop = max(start, min(near, far)), min(stop, max(near, far))
+                elif not low[j, a] <= origin_a <= high[j, a]:
+                    stop = -1.0
+            if start >= stop:
+                continue
+            if count == capacity:
+                capacity *= 2
+                local = grow(local, capacity)
+                ray, template, t_start = grow(ray, capacity), grow(template, capacity), grow(t_start, capacity)
+            for a in range(3):
+                local[count, a] = local_ray[a] + start * local_ray[3 + a] + offset[j, a]
+                local[count, 3 + a] = local_ray[3 + a]
+            ray[count], template[count], t_start[count] = i, j, start
+            count += 1
+    return local[:count], ray[:count], template[:count], t_start[:count]
+
+
+@numba.njit(cache=True)
+def nearest_part_hits(hits_ray, hits_template, t_start, t_hit, face, normal, direction, face_start, t_m, hit_template, hit_face, cos_incidence):
+    """Fold part hits into the rays' nearest hits so far: where a hit on the ray's own template lies
+    nearer than t_m[ray], set t_m, hit_template, hit_face and |cos| of the incidence angle (in place)."""
+    for k in range(len(hits_ray)):
+        j = hits_template[k]
+        if not (np.isfinite(t_hit[k]) and face_start[j] <= face[k] < face_start[j + 1]):
+            continue
+        i = hits_ray[k]
+        t = t_start[k] + t_hit[k]
+        if t < t_m[i]:
+            n = normal[k]
+            length = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+            t_m[i], hit_template[i], hit_face[i] = t, j, face[k]
+            cos_incidence[i] = abs(n[0] * direction[k, 0] + n[1] * direction[k, 1] + n[2] * direction[k, 2]) / length
 
 
 def sphere_hit(origins: NDArray, directions: NDArray, centres: NDArray, radius: float) -> NDArray[np.float64]:

@@ -6,12 +6,15 @@ A sensor's clock starts at 0 when its clip's capture starts: frame k of a clip i
 
 from __future__ import annotations
 
+import functools
+
+import numba
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 import scan_patterns
-from scan_patterns.shots import rotate
+from scan_patterns.shots import head_rotation
 from simgen.frames import SensorInfo
 from simgen.render import Rays
 from simgen.scenario import Scenario, SensorPose
@@ -19,7 +22,12 @@ from simgen.scenario import Scenario, SensorPose
 
 def sensor_rotation(pose: SensorPose) -> NDArray[np.float64]:
     """(3, 3) sensor frame -> pitch frame: yaw about z, then pitch (positive: up), then roll about x."""
-    return Rotation.from_euler("ZYX", [pose.yaw, -pose.pitch, pose.roll], degrees=True).as_matrix()
+    return _euler_rotation(pose.yaw, pose.pitch, pose.roll).copy()
+
+
+@functools.lru_cache(maxsize=256)
+def _euler_rotation(yaw_deg: float, pitch_deg: float, roll_deg: float) -> NDArray[np.float64]:
+    return Rotation.from_euler("ZYX", [yaw_deg, -pitch_deg, roll_deg], degrees=True).as_matrix()
 
 
 def sensor_infos(scenario: Scenario) -> list[SensorInfo]:
@@ -45,13 +53,35 @@ def sensor_infos(scenario: Scenario) -> list[SensorInfo]:
 
 def frame_rays(scenario: Scenario, specs: list[scan_patterns.SensorSpec], frame_index: int, clip_start_s: float) -> Rays:
     """The rays of every sensor's shots in frame `frame_index`, in the pitch frame (specs: `Scenario.sensor_specs()`)."""
-    parts = []
     scan = scenario.scan
+    t0, t1 = scan_patterns.frame_window(frame_index, scan.frame_rate_hz)
+    heads = []  # (sensor index, head index, shots, head -> pitch rotation)
     for i, (sensor, spec) in enumerate(zip(scenario.sensors, specs)):
-        shots = scan_patterns.frame_shots(spec, frame_index, scan.frame_rate_hz, scan.density, scan.sweeps_per_frame)
-        rotation = sensor_rotation(sensor.pose)
-        n = len(shots.t_s)
-        directions = rotate(shots.dirs.astype(np.float64), rotation)
-        origin = np.array([sensor.pose.x, sensor.pose.y, sensor.pose.z])
-        parts.append((np.broadcast_to(origin, (n, 3)), directions, clip_start_s + shots.t_s, np.full(n, i, np.uint8), shots.head))
-    return Rays(*(np.concatenate(column) for column in zip(*parts)))
+        to_pitch = sensor_rotation(sensor.pose)
+        for index, head in enumerate(spec.heads):
+            shots = scan_patterns.head_shots(head, t0, t1, scan.density, index)
+            heads.append((i, index, shots, to_pitch @ head_rotation(head.yaw_deg, head.pitch_deg)))
+    n = sum(len(shots) for _, _, shots, _ in heads)
+    rays = Rays(np.empty((n, 3)), np.empty((n, 3)), np.empty(n), np.empty(n, np.uint8), np.empty(n, np.uint8))
+    start = 0
+    for i, index, shots, rotation in heads:
+        pose = scenario.sensors[i].pose
+        origin = np.array([pose.x, pose.y, pose.z])
+        _fill_head(rays.origin_m, rays.direction, rays.time_s, rays.sensor, rays.head, start, shots.dirs, shots.t_s, rotation, origin, clip_start_s, i, index)
+        start += len(shots)
+    return rays
+
+
+@numba.njit(cache=True)
+def _fill_head(origin, direction, time_s, sensor, head, start, head_directions, head_times_s, rotation, sensor_origin, clip_start_s, sensor_index, head_index):
+    """Write one head's shots into rays from `start`: directions (float32, head frame) turned into
+    the pitch frame by `rotation`, times (s, pattern clock) shifted to game time."""
+    for k in range(len(head_times_s)):
+        i = start + k
+        x, y, z = float(head_directions[k, 0]), float(head_directions[k, 1]), float(head_directions[k, 2])
+        for a in range(3):
+            origin[i, a] = sensor_origin[a]
+            direction[i, a] = rotation[a, 0] * x + rotation[a, 1] * y + rotation[a, 2] * z
+        time_s[i] = clip_start_s + head_times_s[k]
+        sensor[i] = sensor_index
+        head[i] = head_index
