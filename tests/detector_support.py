@@ -25,8 +25,8 @@ def smoke_dataset(root: Path, frames: int) -> Path:
     return _made[frames]
 
 
-def tiny_config(fusion: str, **train: object) -> DetectorConfig:
-    """A CPU-light detector: small grid, one-layer blocks, no augmentation."""
+def tiny_config(fusion: str, channels: int = 8, **train: object) -> DetectorConfig:
+    """A CPU-light detector: small grid, one-layer blocks of `channels` (then twice that), no augmentation."""
     return parse_config(
         {
             "name": f"tiny_{fusion}",
@@ -34,8 +34,8 @@ def tiny_config(fusion: str, **train: object) -> DetectorConfig:
             "model": {
                 "fusion": fusion,
                 "tracklet_boxes": 3 if fusion == "late" else 1,
-                "pillar_channels": 8,
-                "backbone": {"layers": [1, 2, 2], "channels": [8, 8, 16], "upsample_channels": [8, 8, 8]},
+                "pillar_channels": channels,
+                "backbone": {"layers": [1, 2, 2], "channels": [channels, channels, 2 * channels], "upsample_channels": [channels] * 3},
             },
             "train": {"workers": 0, "log_every": 1, **train},
         }

@@ -15,7 +15,9 @@ ITERATIONS = 150
 @pytest.mark.overfit
 def test_late_model_overfits_a_small_clip(tmp_path, tmp_path_factory):
     dataset = str(smoke_dataset(tmp_path_factory.getbasetemp(), 6))  # 4 samples, ~40 objects in range
-    config = tiny_config("late", iterations=ITERATIONS, lr=0.005, log_every=10)
+    # 16 channels: with 8, whether 150 iterations memorise every box depends on the seed (AP 79-95
+    # over seeds 0-2); with 16 it reached 95-100 for each of seeds 0-3.
+    config = tiny_config("late", channels=16, iterations=ITERATIONS, lr=0.005, log_every=10)
     result = fit(config, dataset, tmp_path, torch.device("cpu"), progress=False)
     checkpoint = load_checkpoint(result.checkpoint)
     model = Detector(checkpoint.config)
