@@ -87,7 +87,7 @@ def main() -> None:
         f"{platform.machine()} with {os.cpu_count()} CPUs at load {os.getloadavg()[0]:.1f}.",
         "",
         f"One call poses H humanoids of {body.NUM_VERTICES} vertices and {body.NUM_FACES} triangles "
-        "each (13 closed parts). Baseline: building the same parts per pose with "
+        f"each ({len(body.PART_NAMES)} closed parts). Baseline: building the same parts per pose with "
         f"`trimesh.creation.capsule` and `apply_transform` ({baseline_faces} triangles a humanoid). "
         "Floor: copying the H x V x 3 float32 vertex array.",
         "",
