@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import numba
 import numpy as np
-from numpy.typing import NDArray
 
 from simgen.skeleton import PITCH_LENGTH_M, PITCH_WIDTH_M
 
@@ -62,12 +61,3 @@ def on_line_at(x: float, y: float) -> bool:
         return True
     corner_x, corner_y = ax - HALF_LENGTH_M, ay - HALF_WIDTH_M
     return _near_circle(corner_x * corner_x + corner_y * corner_y, CORNER_ARC_RADIUS_M) and ax <= HALF_LENGTH_M and ay <= HALF_WIDTH_M
-
-
-@numba.njit(cache=True)
-def on_line(x_m: NDArray, y_m: NDArray) -> NDArray[np.bool_]:
-    """`on_line_at` over arrays of ground points (metres)."""
-    out = np.empty(len(x_m), np.bool_)
-    for i in range(len(x_m)):
-        out[i] = on_line_at(x_m[i], y_m[i])
-    return out
