@@ -1,6 +1,6 @@
-"""Humanoid meshes per second of simgen.body.body_meshes against building them with trimesh.
+"""Humanoid meshes per second of simgen.body.mesh.body_meshes against building them with trimesh.
 
-Each call poses H humanoids (random poses of simgen.poses spread over the pitch) and returns
+Each call poses H humanoids (random poses of simgen.motion.synthetic_poses spread over the pitch) and returns
 their vertices, shared faces and per-face materials. Baseline, in the same run: the naive
 per-pose build of the same 13 parts with `trimesh.creation.capsule` (similar vertex counts),
 each moved onto its part by `apply_transform`. For scale, the floor: copying an array of the
@@ -20,11 +20,11 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from simgen import body
-from simgen.poses import keypoints, random_pose
+from simgen.body import mesh as body
+from simgen.motion.synthetic_poses import keypoints, random_pose
+from simgen.vocab import TEAM_NAMES
 
 HUMANOIDS = (1, 25, 100)
-TEAMS = ("left", "right", "official")
 REPEATS = 5  # timing runs of at least 0.2 s each; the best counts
 
 
@@ -58,7 +58,7 @@ def row(n: int, rng: np.random.Generator) -> str:
     """The table row for n humanoids in random poses over the pitch."""
     poses = [random_pose(rng) for _ in range(n)]
     kp = np.stack([keypoints(p, rng.uniform(-np.pi, np.pi), rng.uniform(-40, 40, 2)) for p in poses])
-    teams = [TEAMS[i % len(TEAMS)] for i in range(n)]
+    teams = [TEAM_NAMES[i % len(TEAM_NAMES)] for i in range(n)]
     vertices = body.body_meshes(kp, teams).vertices_m
     ours = seconds_per_call(lambda: body.body_meshes(kp, teams))
     theirs = seconds_per_call(lambda: trimesh_baseline(kp))
@@ -79,7 +79,7 @@ def main() -> None:
     rows = [row(n, rng) for n in HUMANOIDS]
     baseline_faces = sum(len(m.faces) for m in trimesh_baseline(np.stack([keypoints(random_pose(rng))])))
     header = [
-        "# simgen.body benchmark",
+        "# simgen.body.mesh benchmark",
         "",
         f"Written by `benchmarks/bench_body.py`; best of {REPEATS} timing runs, in CPU time of the "
         "process (`time.process_time`: on a shared machine, wall time runs higher). Python "

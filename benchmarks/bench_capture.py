@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simgen.motion import FootballEngine
+from simgen.motion.engine import FootballEngine
 from simgen.scenario import MotionConfig
 
 

@@ -17,12 +17,12 @@ import numpy as np
 import open3d as o3d
 from embreex import mesh_construction, rtcore_scene
 
-from simgen.body import body_meshes
-from simgen.motion import capture_motion
-from simgen.render import interpolate_clip
-from simgen.rig import frame_rays
+from simgen.body.mesh import body_meshes
+from simgen.motion.engine import capture_motion
+from simgen.motion.interpolate import interpolate_clip
+from simgen.scan.sensor_rig import frame_rays
 from simgen.scenario import load_scenario
-from simgen.scene import build_static_scene
+from simgen.scene.static import build_static_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 REPEATS = 20

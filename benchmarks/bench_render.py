@@ -1,6 +1,6 @@
 """Rendering benchmark: Mid-100 frames per second on the default scenario, beside a bare Embree cast.
 
-- ours: `simgen.pipeline.render_clip` end to end (pattern shots, posing every body per 10 ms slice,
+- ours: `simgen.pipeline.clip.render_clip` end to end (pattern shots, posing every body per 10 ms slice,
   casting, noise, labels), one process, one core; and two processes on the machine's two cores.
 - baseline (same run): Open3D's RaycastingScene casting the same rays (one thread) against the
   same scene made static: a ground quad, the goals, and every body's mesh posed at the frame's
@@ -18,13 +18,13 @@ from pathlib import Path
 import numpy as np
 import open3d as o3d
 
-from simgen.body import body_meshes
-from simgen.motion import capture_motion
-from simgen.pipeline import frame_count, render_clip
-from simgen.render import interpolate_clip
-from simgen.rig import frame_rays
+from simgen.body.mesh import body_meshes
+from simgen.motion.engine import capture_motion
+from simgen.motion.interpolate import interpolate_clip
+from simgen.pipeline.clip import frame_count, render_clip
+from simgen.scan.sensor_rig import frame_rays
 from simgen.scenario import load_scenario, parse_scenario
-from simgen.scene import build_static_scene
+from simgen.scene.static import build_static_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -37,10 +37,6 @@ def _params(p: NDArray) -> RisleyParams:
     return RisleyParams(wedge_deg=(p[0], p[1]), index=p[2], rpm=(p[3], p[4]), phase_deg=(p[5], p[6]))
 
 
-def _vector(params: RisleyParams) -> NDArray:
-    return np.array([*params.wedge_deg, params.index, *params.rpm, *params.phase_deg], np.float64)
-
-
 def _residuals(p: NDArray, t_s: NDArray, dirs: NDArray) -> NDArray:
     return (directions_exact(_params(p), t_s) - dirs).ravel()
 

@@ -2,11 +2,11 @@
 
 Usage: python scripts/measure_box_margins.py [--poses N] [--seed S] [--clip motion.parquet]
 
-For the presets and N random poses of simgen.poses (each at a random yaw), or for every
+For the presets and N random poses of simgen.motion.synthetic_poses (each at a random yaw), or for every
 skeleton of a captured clip, per face of the label box, in metres:
 - reach: how far the body mesh reaches beyond the keypoints (the margins a box drawn around
   the keypoints alone would need), largest and median over poses;
-- slack: how far the box face lies beyond the mesh (simgen.labels sizes boxes from the body
+- slack: how far the box face lies beyond the mesh (simgen.labels.boxes sizes boxes from the body
   model, so this is >= 0 where the mesh is inside). The mesh counts from the ground up: what
   an engine pose puts below it is hidden by it.
 """
@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from simgen.body import body_meshes
-from simgen.labels import FACE_NAMES, boxes_from_keypoints, overhang
-from simgen.motion_io import read_clip
-from simgen.poses import PRESETS, keypoints, random_pose
+from simgen.body.mesh import body_meshes
+from simgen.labels.boxes import FACE_NAMES, boxes_from_keypoints, overhang
+from simgen.motion.clip_io import read_clip
+from simgen.motion.synthetic_poses import PRESETS, keypoints, random_pose
 
 
 def main() -> None:

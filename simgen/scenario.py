@@ -2,7 +2,7 @@
 
 A scenario says what to simulate. Unknown keys, wrong types and out-of-range values are
 rejected with one line naming the field (`load_scenario` raises `UserError`).
-Later stages add their own sections (sensors, scene, noise, output) to `Scenario`.
+Sections: motion, scene, custom_sensors, sensors, scan, noise, dataset.
 """
 
 from __future__ import annotations
@@ -13,9 +13,8 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 import scan_patterns
-
-from simgen.noise import NoiseConfig
 from simgen.validation import read_yaml, validate
+
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -86,6 +85,25 @@ class DatasetConfig(_Strict):
 
     clips: int = Field(1, ge=1, le=100_000, description="Clips: motion sequences of one seed each.")
     format: Literal["parquet", "kitti", "kitti_tracking", "openpcdet"] = Field("parquet", description="Dataset layout.")
+
+
+class NoiseConfig(_Strict):
+    """The sensor's imperfections (section `noise`; used by simgen.render.noise). Defaults: the Livox Mid-40 datasheet."""
+
+    range_sigma_m: float = Field(0.02, ge=0, le=1, description="Gaussian range noise, 1 sigma, metres.")
+    angle_sigma_deg: float = Field(0.03, ge=0, le=1, description="Gaussian direction noise per axis across the beam, 1 sigma, degrees.")
+    divergence_deg: tuple[float, float] = Field(
+        (0.03, 0.28), description="Full beam divergence (horizontal, vertical), degrees."
+    )
+    subrays: int = Field(
+        1, ge=1, le=16, description="Rays per shot spread over the beam footprint; the nearest return wins (1: off)."
+    )
+    min_range_m: float = Field(1.0, ge=0, le=50, description="Returns nearer than this are lost, metres.")
+    max_range_at_10pct_m: float = Field(
+        90.0, gt=0, le=1000, description="Detection range at 10 % reflectivity; it grows as sqrt(reflectivity), metres."
+    )
+    dropout: float = Field(0.0, ge=0, lt=1, description="Probability that a return is lost at random.")
+    enabled: bool = Field(True, description="False: exact ranges and directions, no dropout (range limits still apply).")
 
 
 class Scenario(_Strict):

@@ -30,7 +30,7 @@ def run_simgen(*args: str, timeout: float = 600) -> subprocess.CompletedProcess:
 @pytest.fixture(scope="session")
 def motion_clip():
     """The committed clip captured from the real engine by `simgen capture` (see tests/fixtures/README.md)."""
-    from simgen.motion_io import read_clip
+    from simgen.motion.clip_io import read_clip
 
     return read_clip(MOTION_FIXTURE)
 

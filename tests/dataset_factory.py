@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from simgen.frames import LabelledFrame, SensorInfo
-from simgen.labels import FrameLabels
-from simgen.render import BALL_INSTANCE_ID, ScanFrame
-from simgen.scene import BALL, GROUND, OFFICIAL, PLAYER
+from simgen.labels.boxes import FrameLabels
+from simgen.labels.labelled_frame import LabelledFrame
+from simgen.render.frame import ScanFrame
+from simgen.scan.sensor_info import SensorInfo
+from simgen.vocab import BALL, BALL_INSTANCE_ID, GROUND, OFFICIAL, PLAYER
 
 FRAME_S = 0.1
 SENSOR_M = np.array([0.0, -36.0, 4.0])

@@ -8,21 +8,21 @@ import trimesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from simgen.body import (
-    part_frames,
-    part_templates,
+from simgen.body.mesh import (
     GARMENT_NAMES,
     MATERIAL_NAMES,
     NUM_FACES,
     NUM_VERTICES,
     PART_NAMES,
     REFLECTIVITY,
-    TEAM_NAMES,
     body_extent,
     body_meshes,
+    part_frames,
+    part_templates,
 )
-from simgen.poses import PRESETS, keypoints, lying_keypoints, random_pose
-from simgen.skeleton import KEYPOINT_INDEX as I
+from simgen.motion.synthetic_poses import PRESETS, keypoints, lying_keypoints, random_pose
+from simgen.vocab import KEYPOINT_INDEX as I
+from simgen.vocab import TEAM_NAMES
 
 
 def _poses(count: int, seed: int = 0) -> np.ndarray:

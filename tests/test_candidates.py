@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from simgen.candidates import PACKET_RAYS, sphere_candidates
+from simgen.render.candidates import PACKET_RAYS, sphere_candidates
 
 
 def brute_force(origins, directions, slice_of_ray, t_max, centres, radius) -> set[tuple[int, int]]:

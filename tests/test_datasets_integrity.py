@@ -14,7 +14,7 @@ import simgen.datasets.parquet
 from simgen.datasets import FORMATS, write_clip
 from simgen.datasets.manifest import MANIFEST_NAME
 from simgen.errors import UserError
-from simgen.frames import LabelledFrame
+from simgen.labels.labelled_frame import LabelledFrame
 
 CLIPS = sample_clips()[:2]
 # A file of each kind, per format, and the frame that reads it.

@@ -86,10 +86,3 @@ def test_a_table_of_another_schema_version_is_rejected(tmp_path):
     (tmp_path / MANIFEST_NAME).write_text(json.dumps(manifest))
     with pytest.raises(UserError, match=r"part-0.parquet: dataset schema version 99, this simgen reads 1$"):
         simgen.datasets.open(tmp_path).frame("clip_0000", 0)
-
-
-def test_the_ball_instance_id_is_the_renderer_s():
-    from simgen.datasets.schema import BALL_INSTANCE_ID
-    from simgen.render import BALL_INSTANCE_ID as RENDERED
-
-    assert BALL_INSTANCE_ID == RENDERED

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from conftest import ROOT, run_simgen
-from simgen.motion_io import read_clip
 from test_motion_clip import assert_plausible_skeletons
+
+from simgen.motion.clip_io import read_clip
 
 pytestmark = pytest.mark.engine
 SMOKE = ROOT / "scenarios" / "smoke.yaml"

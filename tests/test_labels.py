@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import MOTION_FIXTURE
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import MOTION_FIXTURE
-from simgen.body import body_meshes
-from simgen.heading import DEFAULT, HIPS, SHOULDERS, SPINE, VELOCITY, heading, wrap_angle
-from simgen.labels import FACE_NAMES, boxes_from_keypoints, overhang
-from simgen.poses import PRESETS, Pose, keypoints, lying_keypoints, random_pose
-from simgen.skeleton import KEYPOINT_INDEX as I
+from simgen.body.heading import DEFAULT, HIPS, SHOULDERS, SPINE, VELOCITY, heading, wrap_angle
+from simgen.body.mesh import body_meshes
+from simgen.labels.boxes import FACE_NAMES, boxes_from_keypoints, overhang
+from simgen.motion.synthetic_poses import PRESETS, Pose, keypoints, lying_keypoints, random_pose
+from simgen.vocab import KEYPOINT_INDEX as I
 
 TOLERANCE_M = 0.02
 
@@ -35,9 +35,9 @@ def _above_ground_overhang(kp: np.ndarray, velocity=None) -> np.ndarray:
     "name", ["standing", "running", "sprinting", "arms_raised", "leaning", "jumping", "crouching"]
 )
 def test_pose_facing_x_has_yaw_zero(name):
-    boxes = boxes_from_keypoints(keypoints(PRESETS[name])[None])
-    assert abs(np.rad2deg(boxes.yaw_rad[0])) < 1.0
-    assert boxes.heading_source[0] == SHOULDERS
+    kp = keypoints(PRESETS[name])[None]
+    assert abs(np.rad2deg(boxes_from_keypoints(kp).yaw_rad[0])) < 1.0
+    assert heading(kp).source[0] == SHOULDERS
 
 
 def test_box_follows_a_twisted_trunk():
@@ -101,7 +101,7 @@ def test_jumping_box_starts_at_the_lowest_body_point():
 def test_lying_player_uses_the_spine_and_stays_inside():
     kp = np.stack([lying_keypoints(yaw, (3.0, -2.0)) for yaw in (0.0, 1.0, -2.5)])
     boxes = boxes_from_keypoints(kp)
-    assert np.all(boxes.heading_source == SPINE)
+    assert np.all(heading(kp).source == SPINE)
     np.testing.assert_allclose(boxes.yaw_rad, [0.0, 1.0, -2.5], atol=1e-9)  # towards the head
     assert boxes.size_m[0, 0] > 1.6 and boxes.size_m[0, 2] < 0.6
     assert _above_ground_overhang(kp).max() <= TOLERANCE_M

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-
 from conftest import MOTION_FIXTURE
+
 from simgen.errors import UserError
-from simgen.motion import MotionClip
-from simgen.motion_io import read_clip, write_clip
-from simgen.skeleton import KEYPOINT_INDEX
+from simgen.motion.clip import MotionClip
+from simgen.motion.clip_io import read_clip, write_clip
+from simgen.vocab import KEYPOINT_INDEX
 
 NECK, MIDDLE = KEYPOINT_INDEX["neck"], KEYPOINT_INDEX["middle"]
 ANKLES = [KEYPOINT_INDEX["left_ankle"], KEYPOINT_INDEX["right_ankle"]]

@@ -5,11 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simgen.noise import NoiseConfig, max_range_m, noisy_returns
-from simgen.render import Rays, World, render_frame
-from simgen.scene import BALL, build_static_scene
+from simgen.motion.synthetic_poses import PRESETS, keypoints
+from simgen.render.frame import render_frame
+from simgen.render.noise import max_range_m, noisy_returns
+from simgen.render.world import World
+from simgen.scan.rays import Rays
+from simgen.scenario import NoiseConfig
+from simgen.scene.static import build_static_scene
+from simgen.vocab import BALL
 from tests.test_render import still_clip
-from simgen.poses import PRESETS, keypoints
 
 HEIGHT_M = 10.0
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from conftest import MOTION_FIXTURE
-from simgen.poses import ANKLE_HEIGHT_M, PRESETS, Pose, keypoints, random_pose
-from simgen.skeleton import KEYPOINT_INDEX as I
+
+from simgen.motion.synthetic_poses import ANKLE_HEIGHT_M, PRESETS, Pose, keypoints, random_pose
+from simgen.vocab import KEYPOINT_INDEX as I
 
 
 def test_standing_adult_heights():

@@ -5,13 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simgen.body import body_meshes
-from simgen.motion import MotionClip
-from simgen.noise import NoiseConfig
-from simgen.poses import PRESETS, keypoints
-from simgen.render import Rays, World, render_frame
-from simgen.scene import BALL, GROUND, LINE, PLAYER, SURROUNDINGS, build_static_scene
-from simgen.skeleton import KEYPOINT_INDEX
+from simgen.body.mesh import body_meshes
+from simgen.motion.clip import MotionClip
+from simgen.motion.synthetic_poses import PRESETS, keypoints
+from simgen.render.frame import render_frame
+from simgen.render.world import World
+from simgen.scan.rays import Rays
+from simgen.scenario import NoiseConfig
+from simgen.scene.static import build_static_scene
+from simgen.vocab import BALL, GROUND, KEYPOINT_INDEX, LINE, PLAYER, SURROUNDINGS
 
 EXACT = NoiseConfig(enabled=False, min_range_m=0.0)
 
@@ -161,7 +163,7 @@ def test_fast_player_smears_within_a_sweep():
 
 def test_captured_clip_points_fall_with_range_and_shots_add_up(motion_clip):
     """A Mid-100 on the touchline over the committed engine clip: the sparse-LiDAR reality."""
-    from simgen.pipeline import render_clip
+    from simgen.pipeline.clip import render_clip
     from simgen.scenario import parse_scenario
 
     scenario = parse_scenario({"name": "t", "scan": {"frames": 20}, "scene": {"surroundings": True}})

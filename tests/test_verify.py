@@ -12,12 +12,12 @@ from dataset_factory import sample_clips, write_dataset
 from simgen.cli import main
 from simgen.datasets import FORMATS
 from simgen.datasets.frame import Frame
-from simgen.frames import LabelledFrame
-from simgen.labels import FrameLabels
-from simgen.qa.labels import box_problems, count_problems, track_problems
+from simgen.labels.boxes import FrameLabels
+from simgen.labels.labelled_frame import LabelledFrame
+from simgen.qa.label_checks import box_problems, count_problems, track_problems
 from simgen.qa.tolerances import load_tolerances
-from simgen.render import ScanFrame
-from simgen.scene import GROUND, PLAYER
+from simgen.render.frame import ScanFrame
+from simgen.vocab import GROUND, PLAYER
 
 TOL = load_tolerances().labels
 BOX = [10.0, 5.0, 0.9, 0.6, 0.5, 1.8, 0.3]  # x, y, z, length, width, height, yaw

@@ -3,35 +3,33 @@
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 from tqdm import tqdm
 
 from simgen.atomic import check_output_allowed
+from simgen.commands.arguments import add_command, add_scenario_arguments
 from simgen.errors import UserError
 from simgen.scenario import load_scenario
 
 
 def register(subparsers) -> None:
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "capture",
-        help="play a football match in the real engine and record every player's skeleton",
-        description="Play the scenario's Google Research Football level with all 22 players on the "
+        "play a football match in the real engine and record every player's skeleton",
+        "Play the scenario's Google Research Football level with all 22 players on the "
         "engine's built-in AI and write a motion clip: per frame the game time and the ball, per "
         "humanoid (players, referee, linesmen) a stable track id, team, role and the 12 skeleton "
         "keypoints in metres, in the pitch frame (origin at the centre spot, x towards the right "
         "team's goal, y left, z up).",
     )
-    parser.add_argument("scenario", type=Path, help="scenario YAML file (see scenarios/)")
-    parser.add_argument("-o", "--output", type=Path, required=True, help="motion clip to write (.parquet)")
-    parser.add_argument("--frames", type=int, help="frames to capture (default: the scenario's motion.frames)")
-    parser.add_argument("--seed", type=int, help="random seed (default: the scenario's seed)")
+    add_scenario_arguments(parser, "motion clip to write (.parquet)", "frames to capture (default: the scenario's motion.frames)")
     parser.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from simgen.motion import capture_motion, check_level
-    from simgen.motion_io import write_clip
+    from simgen.motion.clip_io import write_clip
+    from simgen.motion.engine import capture_motion, check_level
     from simgen.scenario import parse_scenario
 
     scenario = load_scenario(args.scenario)

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 from tqdm import tqdm
 
+from simgen.commands.arguments import add_command, add_scenario_arguments
 from simgen.errors import UserError
 from simgen.scenario import load_scenario, parse_scenario
 
@@ -14,21 +14,19 @@ FORMAT_CHOICES = ("parquet", "kitti", "kitti_tracking", "openpcdet")
 
 
 def register(subparsers) -> None:
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "generate",
-        help="make a labelled LiDAR dataset from a scenario",
-        description="For each clip: play the scenario's match in the football engine, scan it with the "
+        "make a labelled LiDAR dataset from a scenario",
+        "For each clip: play the scenario's match in the football engine, scan it with the "
         "scenario's LiDARs, label every humanoid, and write the frames. Clips run in parallel on this "
         "machine's cores (--workers) or as tasks on a Ray cluster (--executor ray); the same scenario "
         "and seed give byte-identical datasets either way. An interrupted run is finished with --resume.",
     )
-    parser.add_argument("scenario", type=Path, help="scenario YAML file (see scenarios/)")
-    parser.add_argument("-o", "--output", type=Path, required=True, help="dataset directory to create, e.g. datasets/NAME")
+    add_scenario_arguments(parser, "dataset directory to create, e.g. datasets/NAME", "frames per clip (default: the scenario's scan.frames)")
     parser.add_argument("--format", choices=FORMAT_CHOICES, help="dataset layout (default: the scenario's, else parquet)")
     parser.add_argument("--density", type=float, help="shots per second as a multiple of the real sensor's (x1, x2, ...)")
     parser.add_argument("--clips", type=int, help="number of clips (default: the scenario's dataset.clips)")
-    parser.add_argument("--frames", type=int, help="frames per clip (default: the scenario's scan.frames)")
-    parser.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
     parser.add_argument("--workers", type=int, default=1, help="local worker processes, one clip each at a time (default 1)")
     parser.add_argument("--executor", choices=("local", "ray"), default="local", help="where clips run (default local)")
     parser.add_argument("--address", help="Ray cluster address, e.g. 10.0.0.5:6379 (default: start a local Ray)")
@@ -88,8 +86,8 @@ class _Bars:
 
 
 def run(args) -> int:
-    from simgen.generate import generate
-    from simgen.motion import check_level
+    from simgen.motion.engine import check_level
+    from simgen.pipeline.dataset_run import generate
 
     scenario = _resolve(args)
     if args.workers < 1 or args.workers > 4 * (os.cpu_count() or 1):

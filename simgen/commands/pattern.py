@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
-import textwrap
 import warnings
 from pathlib import Path
 
@@ -13,6 +11,7 @@ import numpy as np
 
 from simgen import __version__
 from simgen.atomic import atomic_path
+from simgen.commands.arguments import add_command
 from simgen.errors import UserError
 
 MAX_SHOTS = 50_000_000  # ~1.3 GB of output; ask for longer spans in pieces with --start
@@ -29,21 +28,18 @@ def _presets_help() -> str:
 
 
 def register(subparsers) -> None:
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "pattern",
-        help="write a scan pattern's shots (time, azimuth, zenith, head) to .npz",
-        description=textwrap.fill(
-            "Write the shots that a sensor preset fires in the window (START, START + SECONDS], "
-            "in the layout of Livox's official pattern files: t_s [s], azimuth_deg, zenith_deg "
-            "(90 = boresight) as float64 and head (uint8). Directions are in the sensor's frame "
-            "(x forward, y left, z up; azimuth positive towards y), each head's yaw and pitch "
-            "applied; heads follow one another, each in time order. A replayed file that runs "
-            "out is looped, with a warning.",
-            width=88,
-        ),
-        epilog="presets:\n" + _presets_help(),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "write a scan pattern's shots (time, azimuth, zenith, head) to .npz",
+        "Write the shots that a sensor preset fires in the window (START, START + SECONDS], "
+        "in the layout of Livox's official pattern files: t_s [s], azimuth_deg, zenith_deg "
+        "(90 = boresight) as float64 and head (uint8). Directions are in the sensor's frame "
+        "(x forward, y left, z up; azimuth positive towards y), each head's yaw and pitch "
+        "applied; heads follow one another, each in time order. A replayed file that runs "
+        "out is looped, with a warning.",
     )
+    parser.epilog = "presets:\n" + _presets_help()
     parser.add_argument("preset", metavar="PRESET", help="sensor preset (listed below)")
     parser.add_argument("--seconds", type=float, required=True, help="length of the window, s")
     parser.add_argument("--density", type=float, default=1.0, help="shots per second factor, any positive number (default 1)")

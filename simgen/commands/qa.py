@@ -3,36 +3,32 @@ verdict per check; exit code 0 when every check passes, 1 when one fails."""
 
 from __future__ import annotations
 
-import argparse
 import shutil
-import textwrap
 from pathlib import Path
 
+from simgen.commands.arguments import add_command, add_dataset_argument
 from simgen.errors import UserError
 
 DEFAULT_MAX_FRAMES = 500
 
 
 def register(subparsers) -> None:
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "qa",
-        help="fidelity report of a scan pattern or a dataset, with pass / fail verdicts",
-        description=textwrap.fill(
-            "Write a fidelity report to REPORT_DIR: index.html (opens without a server), report.md and "
-            "plots/*.png. --pattern PRESET: each head's shot pattern (one frame and 0.5 s), coverage "
-            "against integration time, radial density and points on a person-sized target, against "
-            "Livox's official file of the head's type. DATASET: the same for the presets of its "
-            "sensors, plus points per humanoid against range and off-axis angle, per-frame points, "
-            "dropout and misses, the intensity histogram and `simgen verify`. Each check passes or "
-            "fails against tolerances (simgen/qa/tolerances.yaml, or an edited copy given with "
-            "--tolerances). Exit code 0: every check passed; 1: a check failed; 2: bad input.",
-            width=88,
-        ),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "fidelity report of a scan pattern or a dataset, with pass / fail verdicts",
+        "Write a fidelity report to REPORT_DIR: index.html (opens without a server), report.md and "
+        "plots/*.png. --pattern PRESET: each head's shot pattern (one frame and 0.5 s), coverage "
+        "against integration time, radial density and points on a person-sized target, against "
+        "Livox's official file of the head's type. DATASET: the same for the presets of its "
+        "sensors, plus points per humanoid against range and off-axis angle, per-frame points, "
+        "dropout and misses, the intensity histogram and `simgen verify`. Each check passes or "
+        "fails against tolerances (simgen/qa/tolerances.yaml, or an edited copy given with "
+        "--tolerances). Exit code 0: every check passed; 1: a check failed; 2: bad input.",
     )
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--pattern", metavar="PRESET", help="sensor preset (see `simgen pattern --help`)")
-    source.add_argument("dataset", nargs="?", type=Path, metavar="DATASET", help="dataset directory (with manifest.json)")
+    add_dataset_argument(source, nargs="?")
     parser.add_argument("-o", "--output", type=Path, required=True, metavar="REPORT_DIR", help="report directory (created)")
     parser.add_argument("--tolerances", type=Path, metavar="FILE", help="edited copy of simgen/qa/tolerances.yaml")
     parser.add_argument("--max-frames", type=int, default=DEFAULT_MAX_FRAMES,

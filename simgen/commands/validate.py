@@ -20,7 +20,7 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from simgen.motion import check_level
+    from simgen.motion.engine import check_level
 
     for path in args.scenarios:
         scenario = load_scenario(path)

@@ -2,29 +2,26 @@
 
 from __future__ import annotations
 
-import argparse
-import textwrap
 from pathlib import Path
+
+from simgen.commands.arguments import add_command, add_dataset_argument
 
 
 def register(subparsers) -> None:
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "verify",
-        help="check a dataset: sha256 of every file, schema version, label sanity",
-        description=textwrap.fill(
-            "Check a dataset that simgen wrote: every file of manifest.json present with its size and "
-            "sha256, no file it does not list, the schema version (manifest and Parquet tables), frame "
-            "and clip totals, every shot accounted for, and the labels: boxes finite, human-sized, on "
-            "the pitch and standing on or above the ground; stored point counts equal to the points "
-            "of each humanoid and to those inside its box; track ids unique per frame, without gaps "
-            "or jumps. Each problem is one line `FILE:ROW: problem` (ROW: line number from 1 in a "
-            "text label file, row index from 0 in a Parquet table; no ROW for a whole file). Exit "
-            "code 0: no problem; 1: problems; 2: not a readable dataset.",
-            width=88,
-        ),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "check a dataset: sha256 of every file, schema version, label sanity",
+        "Check a dataset that simgen wrote: every file of manifest.json present with its size and "
+        "sha256, no file it does not list, the schema version (manifest and Parquet tables), frame "
+        "and clip totals, every shot accounted for, and the labels: boxes finite, human-sized, on "
+        "the pitch and standing on or above the ground; stored point counts equal to the points "
+        "of each humanoid and to those inside its box; track ids unique per frame, without gaps "
+        "or jumps. Each problem is one line `FILE:ROW: problem` (ROW: line number from 1 in a "
+        "text label file, row index from 0 in a Parquet table; no ROW for a whole file). Exit "
+        "code 0: no problem; 1: problems; 2: not a readable dataset.",
     )
-    parser.add_argument("dataset", type=Path, metavar="DATASET", help="dataset directory (with manifest.json)")
+    add_dataset_argument(parser)
     parser.add_argument("--tolerances", type=Path, metavar="FILE", help="edited copy of simgen/qa/tolerances.yaml (labels section)")
     parser.set_defaults(func=run)
 

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import argparse
-import textwrap
 import time
 from pathlib import Path
 
+from simgen.commands.arguments import add_command, add_dataset_argument
 from simgen.errors import UserError
 
 DEFAULT_PX_PER_M = 10.0
@@ -15,22 +14,19 @@ DEFAULT_PX_PER_M = 10.0
 def register(subparsers) -> None:
     from simgen.view import COLOURINGS, EXPORT_FORMATS
 
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "view",
-        help="pictures of a clip: bird's-eye and side views (PNG, MP4); frames as PCD or PLY",
-        description=textwrap.fill(
-            "Draw the frames A:B of a clip: a bird's-eye view of the pitch (points coloured by height or "
-            "intensity, the painted lines, each box with its track id and a heading arrow, grey when no "
-            "point hit it; the sensors and their heads' boresights) above a side view (looking along +y, "
-            "height stretched x4). Writes OUT/<clip>/frame_NNNNNN.png per frame and OUT/<clip>.mp4 "
-            "(mp4v, at the clip's frame rate). --export-frame writes frames' points as "
-            "OUT/<clip>/frame_NNNNNN.pcd or .ply (x, y, z in the pitch frame, metres, and intensity) "
-            "for CloudCompare or Open3D's viewer.",
-            width=88,
-        ),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        "pictures of a clip: bird's-eye and side views (PNG, MP4); frames as PCD or PLY",
+        "Draw the frames A:B of a clip: a bird's-eye view of the pitch (points coloured by height or "
+        "intensity, the painted lines, each box with its track id and a heading arrow, grey when no "
+        "point hit it; the sensors and their heads' boresights) above a side view (looking along +y, "
+        "height stretched x4). Writes OUT/<clip>/frame_NNNNNN.png per frame and OUT/<clip>.mp4 "
+        "(mp4v, at the clip's frame rate). --export-frame writes frames' points as "
+        "OUT/<clip>/frame_NNNNNN.pcd or .ply (x, y, z in the pitch frame, metres, and intensity) "
+        "for CloudCompare or Open3D's viewer.",
     )
-    parser.add_argument("dataset", type=Path, metavar="DATASET", help="dataset directory (with manifest.json)")
+    add_dataset_argument(parser)
     parser.add_argument("-o", "--output", type=Path, required=True, metavar="OUT", help="output directory (created)")
     parser.add_argument("--clip", help="clip id (default: the first clip)")
     parser.add_argument("--frames", default=":", metavar="A:B", help="frames A to B-1 (Python slice; default all), or one frame A")

@@ -7,11 +7,10 @@ import json
 import pyarrow as pa
 
 from simgen.datasets import kitti_camera as camera
-from simgen.datasets.frame import OFFICIAL_CLASS, PLAYER_CLASS
 from simgen.datasets.manifest import MANIFEST_NAME, Manifest
 from simgen.datasets.samples import INTENSITY_SCALE, MAX_FRAMES_PER_CLIP, VAL_FRACTION
-from simgen.datasets.schema import BALL_INSTANCE_ID, BOX_CONVENTION, PITCH_FRAME, TABLES
-from simgen.scene import SEMANTIC_NAMES
+from simgen.datasets.schema import BOX_CONVENTION, PITCH_FRAME, TABLES
+from simgen.vocab import BALL_INSTANCE_ID, OFFICIAL_CLASS, PLAYER_CLASS, SEMANTIC_NAMES
 
 
 def _table(header: list[str], rows: list[list]) -> list[str]:

@@ -13,10 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-PLAYER_CLASS = "Pedestrian"  # KITTI's class for people on foot, as KITTI-trained detectors expect
-OFFICIAL_CLASS = "Official"  # referee and linesmen: people, but not players
-CLASS_NAMES = (PLAYER_CLASS, OFFICIAL_CLASS)
-TEAMS = ("left", "right", "official")
+from simgen.vocab import OFFICIAL_CLASS, PLAYER_CLASS
 
 
 def class_names(team: NDArray[np.str_]) -> NDArray[np.str_]:
@@ -42,7 +39,7 @@ class Frame:
     sensor: NDArray[np.uint8] | None = None  # (P,)
     head: NDArray[np.uint8] | None = None  # (P,)
     instance_id: NDArray[np.int32] | None = None  # (P,) track id, 1000 ball, -1 none
-    semantic: NDArray[np.uint8] | None = None  # (P,) index into simgen.scene.SEMANTIC_NAMES
+    semantic: NDArray[np.uint8] | None = None  # (P,) index into simgen.vocab.SEMANTIC_NAMES
     team: NDArray[np.str_] | None = None  # (H,) left, right, official
     role: NDArray[np.str_] | None = None  # (H,)
     velocity_mps: NDArray[np.float32] | None = None  # (H, 3)

@@ -20,15 +20,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from simgen.datasets.frame import CLASS_NAMES, Frame, class_names
+from simgen.datasets.frame import Frame, class_names
 from simgen.datasets.kitti_camera import calib_lines, kitti_boxes, pitch_boxes
 from simgen.datasets.records import FileRecord, write_bytes, write_text
 from simgen.datasets.samples import float32_text, float64_text, from_xyzi, sample_name, to_xyzi
 from simgen.datasets.verify import DatasetFiles
 from simgen.errors import UserError
+from simgen.vocab import CLASS_NAMES
 
 if TYPE_CHECKING:
-    from simgen.frames import LabelledFrame
+    from simgen.labels.labelled_frame import LabelledFrame
 
 UNKNOWN_OCCLUSION = 3
 OPEN_CLIPS = 4  # tracking label files the reader keeps parsed

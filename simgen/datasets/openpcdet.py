@@ -17,14 +17,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from simgen.datasets.frame import CLASS_NAMES, Frame, class_names
+from simgen.datasets.frame import Frame, class_names
 from simgen.datasets.records import FileRecord, write_bytes, write_text
 from simgen.datasets.samples import float32_text, from_xyzi, sample_name, to_xyzi
 from simgen.datasets.verify import DatasetFiles
 from simgen.errors import UserError
+from simgen.vocab import CLASS_NAMES
 
 if TYPE_CHECKING:
-    from simgen.frames import LabelledFrame
+    from simgen.labels.labelled_frame import LabelledFrame
 
 
 def points_path(clip_index: int, index: int) -> str:

@@ -27,10 +27,11 @@ from simgen.datasets.records import FileRecord, record_file
 from simgen.datasets.schema import BOX_FIELDS, METADATA_KEY, SCHEMA_VERSION, TABLES, with_table_metadata
 from simgen.datasets.verify import DatasetFiles
 from simgen.errors import UserError
-from simgen.skeleton import NUM_KEYPOINTS
+from simgen.vocab import NUM_KEYPOINTS
 
 if TYPE_CHECKING:
-    from simgen.frames import LabelledFrame, SensorInfo
+    from simgen.labels.labelled_frame import LabelledFrame
+    from simgen.scan.sensor_info import SensorInfo
 
 FRAMES_PER_GROUP = 1000  # row groups of `frames` and `boxes`
 OPEN_CLIPS = 4  # clips whose frames and boxes tables the reader keeps

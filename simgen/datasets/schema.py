@@ -14,8 +14,7 @@ import json
 
 import pyarrow as pa
 
-from simgen.scene import SEMANTIC_NAMES
-from simgen.skeleton import KEYPOINT_NAMES, NUM_KEYPOINTS
+from simgen.vocab import BALL_INSTANCE_ID, KEYPOINT_NAMES, NUM_KEYPOINTS, SEMANTIC_NAMES
 
 SCHEMA_VERSION = 1
 METADATA_KEY = b"simgen.dataset"
@@ -24,7 +23,6 @@ BOX_CONVENTION = (
     "x, y, z box centre; length along the heading, width across it, height along z; "
     "yaw turns the heading counter-clockwise from +x, radians in (-pi, pi]"
 )
-BALL_INSTANCE_ID = 1000  # instance id of the ball's points (simgen.render.BALL_INSTANCE_ID)
 
 
 def _field(name: str, type_: pa.DataType, doc: str, unit: str = "") -> pa.Field:

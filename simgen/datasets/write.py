@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING
 
 from simgen import __version__
 from simgen.datasets.card import dataset_card
-from simgen.datasets.frame import TEAMS
 from simgen.datasets.kitti import write_kitti_clip
 from simgen.datasets.manifest import FORMATS, MANIFEST_NAME, ClipEntry, Manifest, dependency_versions, manifest_bytes
 from simgen.datasets.openpcdet import write_openpcdet_clip
@@ -24,9 +23,11 @@ from simgen.datasets.records import ClipRecord, FileRecord, write_bytes, write_t
 from simgen.datasets.samples import sample_name, val_clips
 from simgen.datasets.schema import SCHEMA_VERSION
 from simgen.errors import UserError
+from simgen.vocab import TEAM_NAMES
 
 if TYPE_CHECKING:
-    from simgen.frames import LabelledFrame, SensorInfo
+    from simgen.labels.labelled_frame import LabelledFrame
+    from simgen.scan.sensor_info import SensorInfo
 
 #: Clip ids become directory names (`clip=<id>`) that readers parse: a leading letter keeps them strings.
 CLIP_ID = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
@@ -49,9 +50,9 @@ def check_clip(format: str, frames: Sequence[LabelledFrame], clip_index: int) ->
             raise UserError(
                 f"clip {clip}: frame {position} is frame {frame.index} of clip {frame.clip}, expected the clip's frames in order from 0"
             )
-        foreign = set(map(str, frame.labels.team)) - set(TEAMS)
+        foreign = set(map(str, frame.labels.team)) - set(TEAM_NAMES)
         if foreign:
-            raise UserError(f"clip {clip}, frame {position}: unknown team {sorted(foreign)[0]!r} (expected {', '.join(TEAMS)})")
+            raise UserError(f"clip {clip}, frame {position}: unknown team {sorted(foreign)[0]!r} (expected {', '.join(TEAM_NAMES)})")
 
 
 def write_clip(

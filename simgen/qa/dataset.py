@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from simgen.datasets.parquet import open_table, table_path
 from simgen.datasets.reader import Dataset
 from simgen.qa.checks import Check
-from simgen.qa.labels import in_box
+from simgen.qa.label_checks import in_box
 from simgen.qa.sensors import SensorGeometry, sensor_geometry, view_angles
 from simgen.qa.tolerances import DatasetTolerances, LabelTolerances
 

@@ -1,6 +1,6 @@
 """`simgen verify`: a dataset's files against its manifest (present, size, sha256, nothing unlisted),
 its schema version (manifest.json and every Parquet table), its bookkeeping (frame and clip totals,
-every shot accounted for) and its labels (`simgen.qa.labels`), each problem at a file and row.
+every shot accounted for) and its labels (`simgen.qa.label_checks`), each problem at a file and row.
 
 A missing directory or an unreadable manifest is bad input (`UserError`), not a problem found.
 """
@@ -18,7 +18,7 @@ from simgen.datasets.reader import Dataset
 from simgen.datasets.schema import SCHEMA_VERSION, TABLES
 from simgen.errors import UserError
 from simgen.qa.checks import Problem
-from simgen.qa.labels import Locate, box_problems, count_problems, track_problems
+from simgen.qa.label_checks import Locate, box_problems, count_problems, track_problems
 from simgen.qa.tolerances import LabelTolerances
 
 CARD_NAME = "README.md"  # written after the manifest, so not listed in it

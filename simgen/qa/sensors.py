@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 import scan_patterns as sp
 from scan_patterns.shots import head_rotation
-from simgen.rig import sensor_rotation
+from simgen.scan.sensor_rig import sensor_rotation
 from simgen.scenario import SensorPose
 
 

@@ -15,7 +15,7 @@ from simgen.atomic import atomic_path
 from simgen.datasets.reader import Dataset
 from simgen.errors import UserError
 from simgen.qa.sensors import sensor_geometry
-from simgen.view.render import Canvas, background, canvas_for, render_frame
+from simgen.view.draw import Canvas, background, canvas_for, render_frame
 
 
 @dataclass(frozen=True)

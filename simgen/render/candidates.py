@@ -14,7 +14,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from simgen.buffers import grow
+from simgen.render.buffers import grow
 
 PACKET_RAYS = 32
 _COS_MARGIN = 1e-9  # widens every packet's cone against rounding

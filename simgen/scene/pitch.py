@@ -1,15 +1,14 @@
 """The pitch: an analytic ground plane (z = 0) with painted lines (IFAB Laws of the Game sizes).
 
-No mesh: a ray's ground hit is solved in closed form (`simgen.render`), and `on_line_at` says
-whether the hit point is on a painted line (compiled: the renderer asks it for every ray). Pitch frame of `simgen.skeleton`; metres.
+No mesh: a ray's ground hit is solved in closed form (`simgen.render.frame`), and `on_line_at` says
+whether the hit point is on a painted line (compiled: the renderer asks it for every ray). Pitch frame of `simgen.vocab`; metres.
 """
 
 from __future__ import annotations
 
 import numba
-import numpy as np
 
-from simgen.skeleton import PITCH_LENGTH_M, PITCH_WIDTH_M
+from simgen.vocab import PITCH_LENGTH_M, PITCH_WIDTH_M
 
 LINE_WIDTH_M = 0.12
 HALF_LENGTH_M = PITCH_LENGTH_M / 2

@@ -11,19 +11,17 @@ import math
 from typing import Iterator
 
 import numpy as np
-from numpy.typing import NDArray
 
 from simgen.errors import UserError
-from simgen.frames import LabelledFrame
-from simgen.labels import boxes_from_keypoints, frame_labels
-from simgen.motion import MotionClip
-from simgen.render import World, interpolate_clip, render_frame
-from simgen.rig import frame_rays
+from simgen.labels.boxes import frame_labels, label_poses
+from simgen.labels.labelled_frame import LabelledFrame
+from simgen.motion.clip import MotionClip
+from simgen.render.frame import render_frame
+from simgen.render.world import World
+from simgen.scan.sensor_rig import frame_rays
 from simgen.scenario import Scenario
-from simgen.scene import build_static_scene
-from simgen.skeleton import KEYPOINT_INDEX
+from simgen.scene.static import build_static_scene
 
-VELOCITY_DT_S = 0.05  # half-width of the central difference for label velocities
 LABEL_CHUNK_FRAMES = 50  # frames whose labels are computed at once
 
 
@@ -49,17 +47,6 @@ def frame_count(scenario: Scenario, clip: MotionClip) -> int:
             f"{wanted / scenario.scan.frame_rate_hz:.1f} s of motion, the clip has {span_s:.1f} s (raise motion.frames)"
         )
     return wanted
-
-
-def label_poses(clip: MotionClip, label_times_s: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-    """Keypoints (F, H, 12, 3), velocities of `middle` (F, H, 3) in m/s and boxes (F, H, 7) at F label times (s)."""
-    times = np.clip(label_times_s[:, None] + np.array([-VELOCITY_DT_S, 0.0, VELOCITY_DT_S]), clip.time_s[0], clip.time_s[-1])
-    keypoints, _ = interpolate_clip(clip, times.reshape(-1))
-    keypoints = keypoints.reshape(len(times), 3, clip.num_humanoids, 12, 3)
-    middle = KEYPOINT_INDEX["middle"]
-    velocity = (keypoints[:, 2, :, middle] - keypoints[:, 0, :, middle]) / (times[:, 2] - times[:, 0])[:, None, None]
-    boxes = boxes_from_keypoints(keypoints[:, 1].reshape(-1, 12, 3), velocity.reshape(-1, 3)).array
-    return keypoints[:, 1], velocity, boxes.reshape(len(times), clip.num_humanoids, 7)
 
 
 def render_clip(scenario: Scenario, clip: MotionClip, clip_index: int) -> Iterator[LabelledFrame]:

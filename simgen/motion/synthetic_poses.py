@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from simgen.skeleton import KEYPOINT_INDEX, NUM_KEYPOINTS
+from simgen.vocab import KEYPOINT_INDEX, NUM_KEYPOINTS
 
 ANKLE_HEIGHT_M = 0.09  # ankle joint above the ground, standing (the clip's median when still)
 SHIN_M = 0.442  # knee -> ankle

@@ -15,8 +15,8 @@ from scipy.spatial.transform import Rotation
 
 import scan_patterns
 from scan_patterns.shots import head_rotation
-from simgen.frames import SensorInfo
-from simgen.render import Rays
+from simgen.scan.rays import Rays
+from simgen.scan.sensor_info import SensorInfo
 from simgen.scenario import Scenario, SensorPose
 
 

@@ -2,7 +2,7 @@
 
 Triangle meshes built once per scenario (trimesh primitives), each face with a semantic class,
 a reflectivity at 905 nm and a transmission (the fraction of rays a goal net lets through).
-The ground and its painted lines are analytic (`simgen.pitch`); players are `simgen.body`.
+The ground and its painted lines are analytic (`simgen.scene.pitch`); players are `simgen.body.mesh`.
 """
 
 from __future__ import annotations
@@ -13,10 +13,8 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from simgen.pitch import HALF_LENGTH_M, HALF_WIDTH_M
-
-SEMANTIC_NAMES = ("ground", "line", "player", "official", "ball", "goal", "surroundings")
-GROUND, LINE, PLAYER, OFFICIAL, BALL, GOAL, SURROUNDINGS = range(len(SEMANTIC_NAMES))
+from simgen.scene.pitch import HALF_LENGTH_M, HALF_WIDTH_M
+from simgen.vocab import GOAL, SURROUNDINGS
 
 # Reflectivities at 905 nm (assumptions): grass ~0.35 (vegetation reflects 0.3-0.5 in the near
 # infrared), white paint 0.8, white goal frame 0.8, nylon net 0.5, boards 0.6, concrete stand 0.3.
@@ -36,7 +34,7 @@ class StaticScene:
 
     vertices: NDArray[np.float32]  # (V, 3)
     faces: NDArray[np.int32]  # (F, 3)
-    semantic: NDArray[np.uint8]  # (F,) index into SEMANTIC_NAMES
+    semantic: NDArray[np.uint8]  # (F,) index into simgen.vocab.SEMANTIC_NAMES
     reflectivity: NDArray[np.float32]  # (F,) 0..1
     transmission: NDArray[np.float32]  # (F,) fraction of rays passing through (nets), 0 for solids
 

@@ -41,9 +41,9 @@ class ClipJob:
 def run_clip(job: ClipJob, progress: Progress | None = None) -> dict:
     """Make one clip from scratch; returns its `ClipRecord` as a dict (also saved as its done-marker)."""
     from simgen.datasets import write_clip
-    from simgen.motion import capture_motion
-    from simgen.pipeline import engine_seed, frame_count, render_clip
-    from simgen.rig import sensor_infos
+    from simgen.motion.engine import capture_motion
+    from simgen.pipeline.clip import engine_seed, frame_count, render_clip
+    from simgen.scan.sensor_rig import sensor_infos
 
     scenario = Scenario.model_validate(job.scenario)
     notify = progress or (lambda *_: None)
@@ -188,7 +188,7 @@ def _run_clip_on_ray(job: ClipJob, queue) -> dict:
 def finish(root: Path, scenario: Scenario, records: list[dict]):
     """Write the manifest and the dataset card, then remove the run state."""
     from simgen.datasets import ClipRecord, finish_dataset
-    from simgen.rig import sensor_infos
+    from simgen.scan.sensor_rig import sensor_infos
 
     manifest = finish_dataset(
         root,

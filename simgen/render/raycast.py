@@ -2,7 +2,7 @@
 
 - The ground (z = 0) is solved in closed form: most rays end there and need no mesh.
 - Static meshes (goals, nets, boards, stand) sit in one Embree scene built once.
-- Bodies are rigid parts (`simgen.body`); their templates sit in a second Embree scene, built once,
+- Bodies are rigid parts (`simgen.body.mesh`); their templates sit in a second Embree scene, built once,
   on a grid with their bounding spheres apart. A ray that may hit a part is moved into that part's frame (the
   inverse of the part's rigid pose at the ray's own time slice), started where it enters the
   part's bounding sphere, and cast against the template: one Embree call for all such rays.
@@ -22,7 +22,7 @@ import numpy as np
 import open3d as o3d
 from numpy.typing import NDArray
 
-from simgen.buffers import grow
+from simgen.render.buffers import grow
 
 TEMPLATE_GAP_M = 0.5  # between the bounding spheres of templates in their scene
 BOX_MARGIN_M = 1e-4  # round each template's box, against rounding

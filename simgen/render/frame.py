@@ -1,13 +1,12 @@
 """Render one LiDAR frame: cast the shots of a sweep into the posed scene, then apply the sensor's noise.
 
-Every shot keeps its own time: humanoids and the ball are posed per time slice (at most 10 ms;
-slices tile the clip from its first captured time) by interpolating the motion clip, so fast
-players smear as on a real Livox. The frame's point count is exactly its shots minus random
+Every shot keeps its own time: humanoids and the ball are posed per time slice (`simgen.render.world`)
+by interpolating the motion clip, so fast players smear as on a real Livox. The frame's point count is exactly its shots minus random
 dropouts minus misses (no return, out of range): `ScanFrame` says all three.
 
 Per ray the work is compiled (numba): the analytic ground and its lines, the lookup of the
-bounding spheres a ray passes through (`simgen.candidates`), preparing and folding back the
-rays cast at body parts (`simgen.raycast`), and the noise (`simgen.noise`). Embree casts only
+bounding spheres a ray passes through (`simgen.render.candidates`), preparing and folding back the
+rays cast at body parts (`simgen.render.raycast`), and the noise (`simgen.render.noise`). Embree casts only
 the rays that may hit a body part or a goal, or every ray when boards or a stand surround the pitch.
 """
 
@@ -19,43 +18,17 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from simgen.body import REFLECTIVITY, part_frames, part_templates
-from simgen.candidates import sphere_candidates
-from simgen.motion import MotionClip
-from simgen.noise import NoiseConfig, noisy_returns, subray_offsets_rad
-from simgen.pitch import on_line_at
-from simgen.raycast import PartCaster, StaticCaster, nearest_part_hits, sphere_hit
-from simgen.scene import (
-    BALL,
-    GOAL,
-    SURROUNDINGS,
-    BALL_RADIUS_M,
-    BALL_REFLECTIVITY,
-    GRASS_REFLECTIVITY,
-    GROUND,
-    LINE,
-    LINE_REFLECTIVITY,
-    OFFICIAL,
-    PLAYER,
-    StaticScene,
-)
-from simgen.skeleton import KEYPOINT_INDEX
+from simgen.render.candidates import sphere_candidates
+from simgen.render.noise import noisy_returns, subray_offsets_rad
+from simgen.render.raycast import nearest_part_hits, sphere_hit
+from simgen.render.world import World
+from simgen.scan.rays import Rays
+from simgen.scenario import NoiseConfig
+from simgen.scene.pitch import on_line_at
+from simgen.scene.static import BALL_RADIUS_M, BALL_REFLECTIVITY, GRASS_REFLECTIVITY, LINE_REFLECTIVITY
+from simgen.vocab import BALL, BALL_INSTANCE_ID, GROUND, LINE
 
-SLICE_S = 0.01  # longest time over which a humanoid keeps one pose within a sweep
-POSE_CHUNK_SLICES = 50  # slices posed at once (0.5 s); the World keeps two such chunks
-BALL_INSTANCE_ID = 1000  # instance id of the ball's points (humanoids: their track id; others: -1)
 MAX_NET_PASSES = 3
-
-
-@dataclass(frozen=True)
-class Rays:
-    """Shots of one sweep in the pitch frame."""
-
-    origin_m: NDArray[np.float64]  # (N, 3)
-    direction: NDArray[np.float64]  # (N, 3) unit
-    time_s: NDArray[np.float64]  # (N,) game time of each shot
-    sensor: NDArray[np.uint8]  # (N,) index of the sensor in the scenario
-    head: NDArray[np.uint8]  # (N,) index of the head in its sensor
 
 
 @dataclass(frozen=True)
@@ -68,106 +41,10 @@ class ScanFrame:
     sensor: NDArray[np.uint8]  # (P,)
     head: NDArray[np.uint8]  # (P,)
     instance_id: NDArray[np.int32]  # (P,) track id, BALL_INSTANCE_ID, or -1
-    semantic: NDArray[np.uint8]  # (P,) index into simgen.scene.SEMANTIC_NAMES
+    semantic: NDArray[np.uint8]  # (P,) index into simgen.vocab.SEMANTIC_NAMES
     shots: int
     dropped: int  # returns lost to random dropout
     missed: int  # shots with no return in range (sky, too near, too far for the reflectivity)
-
-
-@dataclass(frozen=True)
-class SlicePoses:
-    """Humanoids and the ball at S consecutive time slices, the first being slice `first` of the clip."""
-
-    first: int
-    middle_m: NDArray[np.float64]  # (S, H, 3) each humanoid's `middle` keypoint
-    reach_m: NDArray[np.float64]  # (S, H) radius round `middle` of a sphere holding the body
-    ball_m: NDArray[np.float64]  # (S, 3)
-    rotation: NDArray[np.float64]  # (S, H, P, 3, 3) part -> pitch coordinates (simgen.body.part_frames)
-    translation_m: NDArray[np.float64]  # (S, H, P, 3)
-
-    def __getitem__(self, index: slice) -> SlicePoses:
-        start = index.start or 0
-        return SlicePoses(self.first + start, self.middle_m[index], self.reach_m[index], self.ball_m[index], self.rotation[index], self.translation_m[index])
-
-
-def interpolate_clip(clip: MotionClip, times_s: NDArray) -> tuple[NDArray, NDArray]:
-    """Keypoints (T, H, 12, 3) and ball (T, 3) at `times_s`, linear between captured frames."""
-    times = np.asarray(times_s, dtype=np.float64)
-    if len(times) and (times.min() < clip.time_s[0] - 1e-9 or times.max() > clip.time_s[-1] + 1e-9):
-        raise ValueError(f"times {times.min():.3f}-{times.max():.3f} s outside the clip's {clip.time_s[0]:.3f}-{clip.time_s[-1]:.3f} s")
-    upper = np.clip(np.searchsorted(clip.time_s, times, side="right"), 1, clip.num_frames - 1)
-    lower = upper - 1
-    span = clip.time_s[upper] - clip.time_s[lower]
-    w = np.clip((times - clip.time_s[lower]) / span, 0.0, 1.0)
-    kp0, kp1 = clip.keypoints_m[lower].astype(np.float64), clip.keypoints_m[upper].astype(np.float64)
-    ball0, ball1 = clip.ball_m[lower].astype(np.float64), clip.ball_m[upper].astype(np.float64)
-    return kp0 + w[:, None, None, None] * (kp1 - kp0), ball0 + w[:, None] * (ball1 - ball0)
-
-
-class World:
-    """What stays the same over a clip: the static scene, and every humanoid's rigid part meshes."""
-
-    def __init__(self, clip: MotionClip, scene: StaticScene):
-        self.clip = clip
-        self.scene = scene
-        self.static = StaticCaster(scene.vertices, scene.faces)
-        templates = part_templates(clip.keypoints_m[0].astype(np.float64), clip.team)
-        # One template per (part, humanoid): template p * H + h.
-        self.num_parts = len(templates)
-        self.parts = PartCaster([(local[h], faces) for local, faces, _ in templates for h in range(clip.num_humanoids)])
-        self.face_reflectivity = np.concatenate([REFLECTIVITY[materials].reshape(-1) for _, _, materials in templates])
-        # Parts' bounding spheres in part coordinates, (H, P, 3) and (H, P).
-        self.part_centre_m = self.parts.centre.reshape(self.num_parts, clip.num_humanoids, 3).swapaxes(0, 1)
-        self.part_radius_m = self.parts.radius.reshape(self.num_parts, clip.num_humanoids).T
-        self.semantic = np.where(clip.team == "official", OFFICIAL, PLAYER).astype(np.uint8)
-        # Goals are small seen from a sensor: only rays through their bounding spheres are cast at
-        # them. Boards and a stand surround the sensor: with them, every ray is cast.
-        self.cast_all_static = bool((scene.semantic == SURROUNDINGS).any())
-        spheres = []
-        for side in (-1.0, 1.0):
-            faces = scene.faces[(scene.semantic == GOAL) & (np.sign(scene.vertices[scene.faces[:, 0], 0]) == side)]
-            if len(faces):
-                vertices = scene.vertices[faces.reshape(-1)].astype(np.float64)
-                centre = (vertices.min(axis=0) + vertices.max(axis=0)) / 2
-                spheres.append((*centre, np.linalg.norm(vertices - centre, axis=1).max() + 1e-3))
-        self.static_spheres = np.array(spheres, dtype=np.float64).reshape(-1, 4)
-        self.num_slices = int(np.floor((clip.time_s[-1] - clip.time_s[0]) / SLICE_S)) + 1
-        self._chunks: dict[int, SlicePoses] = {}
-
-    def slice_index(self, time_s: NDArray) -> NDArray[np.int64]:
-        """The clip's time slice of each time (s), clamped to the clip."""
-        index = np.floor((np.asarray(time_s) - self.clip.time_s[0]) / SLICE_S).astype(np.int64)
-        return np.clip(index, 0, self.num_slices - 1)
-
-    def poses(self, first: int, count: int) -> SlicePoses:
-        """Poses of slices first .. first + count - 1, each at its middle (clamped to the clip)."""
-        parts = []
-        for chunk in range(first // POSE_CHUNK_SLICES, (first + count - 1) // POSE_CHUNK_SLICES + 1):
-            poses = self._chunk(chunk)
-            start = max(first - poses.first, 0)
-            parts.append(poses[start : first + count - poses.first])
-        if len(parts) == 1:
-            return parts[0]
-        columns = zip(*((p.middle_m, p.reach_m, p.ball_m, p.rotation, p.translation_m) for p in parts))
-        return SlicePoses(first, *(np.concatenate(column) for column in columns))
-
-    def _chunk(self, chunk: int) -> SlicePoses:
-        if chunk not in self._chunks:
-            if len(self._chunks) >= 2:
-                del self._chunks[min(self._chunks)]
-            first = chunk * POSE_CHUNK_SLICES
-            count = min(POSE_CHUNK_SLICES, self.num_slices - first)
-            times = np.clip(self.clip.time_s[0] + (first + np.arange(count) + 0.5) * SLICE_S, self.clip.time_s[0], self.clip.time_s[-1])
-            keypoints, ball = interpolate_clip(self.clip, times)
-            rotation, translation = part_frames(keypoints.reshape(-1, 12, 3))
-            shape = (count, self.clip.num_humanoids, self.num_parts)
-            rotation, translation = rotation.reshape(shape + (3, 3)), translation.reshape(shape + (3,))
-            # Each body's bounding sphere round `middle`: its parts' spheres, as posed.
-            middle = keypoints[:, :, KEYPOINT_INDEX["middle"]]
-            centres = np.einsum("shpij,hpj->shpi", rotation, self.part_centre_m) + translation
-            reach = (np.linalg.norm(centres - middle[:, :, None], axis=3) + self.part_radius_m).max(axis=2)
-            self._chunks[chunk] = SlicePoses(first, middle, reach, ball, rotation, translation)
-        return self._chunks[chunk]
 
 
 def expand_subrays(rays: Rays, noise: NoiseConfig) -> Rays:

@@ -19,7 +19,7 @@ the spine (rigid with the shoulders, which turn with the spine), both 0.34 m acr
 neck); upper arms; forearm plus hand, 0.45 m long from the elbow (there is no wrist keypoint):
 the upper arm's direction with most of its sideways lean taken out, bent `ELBOW_FLEXION_RAD`
 towards the body's front; thighs; shins; feet 0.265 m long, their soles 0.085 m below the
-ankle joint, pointing forward (the heading of simgen.heading), flat on the ground while the
+ankle joint, pointing forward (the heading of simgen.body.heading), flat on the ground while the
 ankle is low and square to the shin once it is lifted.
 
 Every part is a closed, consistently wound (outward) mesh; parts overlap at the joints,
@@ -37,10 +37,9 @@ import numpy as np
 import scipy.sparse
 from numpy.typing import ArrayLike, NDArray
 
-from simgen.heading import as_keypoints, forward_and_source
-from simgen.skeleton import KEYPOINT_INDEX
+from simgen.body.heading import as_keypoints, forward_and_source
+from simgen.vocab import KEYPOINT_INDEX, TEAM_NAMES
 
-TEAM_NAMES = ("left", "right", "official")  # as simgen.motion.MotionClip.team
 GARMENT_NAMES = ("skin", "shirt", "shorts", "socks", "boots")
 SKIN, SHIRT, SHORTS, SOCKS, BOOTS = range(len(GARMENT_NAMES))
 ELBOW_FLEXION_RAD = np.deg2rad(40.0)
@@ -327,7 +326,7 @@ def _put_part(
 @numba.njit(cache=True)
 def _rig_one(kp: NDArray[np.float64], out: NDArray[np.float64]) -> None:
     """Writes `_rig` of one humanoid's keypoints (12, 3) into out (P, 2, 4, 3)."""
-    forward_x, forward_y, _ = forward_and_source(kp, 0.0, 0.0)  # simgen.heading's, with no velocity
+    forward_x, forward_y, _ = forward_and_source(kp, 0.0, 0.0)  # simgen.body.heading's, with no velocity
     forward, left, z = (forward_x, forward_y, 0.0), (-forward_y, forward_x, 0.0), (0.0, 0.0, 1.0)
     middle, neck = _keypoint(kp, _MIDDLE), _keypoint(kp, _NECK)
     up = _unit_or(_sub(neck, middle), z)

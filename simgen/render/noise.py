@@ -11,28 +11,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import BaseModel, ConfigDict, Field
 
-
-class NoiseConfig(BaseModel):
-    """Noise model settings (scenario section `noise`)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    range_sigma_m: float = Field(0.02, ge=0, le=1, description="Gaussian range noise, 1 sigma, metres.")
-    angle_sigma_deg: float = Field(0.03, ge=0, le=1, description="Gaussian direction noise per axis across the beam, 1 sigma, degrees.")
-    divergence_deg: tuple[float, float] = Field(
-        (0.03, 0.28), description="Full beam divergence (horizontal, vertical), degrees."
-    )
-    subrays: int = Field(
-        1, ge=1, le=16, description="Rays per shot spread over the beam footprint; the nearest return wins (1: off)."
-    )
-    min_range_m: float = Field(1.0, ge=0, le=50, description="Returns nearer than this are lost, metres.")
-    max_range_at_10pct_m: float = Field(
-        90.0, gt=0, le=1000, description="Detection range at 10 % reflectivity; it grows as sqrt(reflectivity), metres."
-    )
-    dropout: float = Field(0.0, ge=0, lt=1, description="Probability that a return is lost at random.")
-    enabled: bool = Field(True, description="False: exact ranges and directions, no dropout (range limits still apply).")
+from simgen.scenario import NoiseConfig
 
 
 @numba.njit(cache=True)

@@ -1,7 +1,7 @@
 """Motion clips on disk: one Parquet file, one row per (frame, humanoid), zstd.
 
 Columns: frame, time_s, track_id, team, role, jersey, keypoints_m (12 x (x, y, z) flattened, in
-the order of `simgen.skeleton.KEYPOINT_NAMES`), engine_position_m, ball_m. Units and the
+the order of `simgen.vocab.KEYPOINT_NAMES`), engine_position_m, ball_m. Units and the
 pitch frame are in the field and schema metadata, so pandas, polars and duckdb read it as is.
 """
 
@@ -16,8 +16,8 @@ import pyarrow.parquet as pq
 
 from simgen.atomic import atomic_path
 from simgen.errors import UserError
-from simgen.motion import MotionClip
-from simgen.skeleton import KEYPOINT_NAMES, NUM_KEYPOINTS
+from simgen.motion.clip import MotionClip
+from simgen.vocab import KEYPOINT_NAMES, NUM_KEYPOINTS
 
 MOTION_SCHEMA_VERSION = 1
 PITCH_FRAME = "pitch: origin at the centre spot, x towards the right team's goal, y left, z up; metres"

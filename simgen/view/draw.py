@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from simgen.pitch import (
+from simgen.scene.pitch import (
     CENTRE_CIRCLE_RADIUS_M,
     CORNER_ARC_RADIUS_M,
     GOAL_AREA_DEPTH_M,
@@ -105,7 +105,7 @@ def _arc(canvas: Canvas, centre: tuple[float, float], radius_m: float, from_rad:
 
 
 def pitch_lines(canvas: Canvas) -> list[NDArray[np.int32]]:
-    """Polylines (pixels) of the painted lines of `simgen.pitch`."""
+    """Polylines (pixels) of the painted lines of `simgen.scene.pitch`."""
     def rect(x0, y0, x1, y1):
         return canvas.bev(np.array([x0, x1, x1, x0, x0]), np.array([y0, y0, y1, y1, y0]))
 

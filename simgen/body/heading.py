@@ -1,4 +1,4 @@
-"""Which way a humanoid faces, from its 12 keypoints (pitch frame, see simgen.skeleton).
+"""Which way a humanoid faces, from its 12 keypoints (pitch frame, see simgen.vocab).
 
 The heading is the horizontal perpendicular of the left-right shoulder line (the paper's
 definition). Its sign needs no vote: the keypoints are labelled left and right, so
@@ -11,7 +11,7 @@ When the shoulder line is (nearly) vertical or its two ends coincide, the headin
 in order, to the hips line (same rule), to the horizontal spine direction middle -> neck
 (a player lying on their side faces where their head is), to the horizontal velocity, and
 finally to +x (yaw 0). `Heading.source` says which one was used. The rule is a compiled
-per-humanoid kernel, `forward_and_source`, which simgen.body's compiled rig calls too.
+per-humanoid kernel, `forward_and_source`, which simgen.body.mesh's compiled rig calls too.
 """
 
 from __future__ import annotations
@@ -22,10 +22,9 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from simgen.skeleton import KEYPOINT_INDEX, NUM_KEYPOINTS
+from simgen.vocab import KEYPOINT_INDEX, NUM_KEYPOINTS
 
 SHOULDERS, HIPS, SPINE, VELOCITY, DEFAULT = range(5)
-SOURCE_NAMES = ("shoulders", "hips", "spine", "velocity", "default")
 #: A line (shoulders, hips) or the spine shorter than this seen from above gives no heading.
 MIN_HORIZONTAL_M = 0.05
 #: Slower than this, the velocity gives no heading.

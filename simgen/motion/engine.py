@@ -3,56 +3,27 @@
 All 22 players play on the engine's built-in AI (the one agent sends `builtin_ai`). Our engine
 patch (engine/gfootball-keypoints.patch) records, after every 10 ms physics step, the world
 positions of the 12 body parts of every humanoid and the ball; we keep every
-`100 / capture_hz`-th sample. Everything here is in the pitch frame of `simgen.skeleton`.
+`100 / capture_hz`-th sample. Everything here is in the pitch frame of `simgen.vocab`.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
-from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 
 from simgen.errors import UserError
+from simgen.motion.clip import MotionClip
 from simgen.scenario import MotionConfig
-from simgen.skeleton import NUM_KEYPOINTS
+from simgen.vocab import NUM_KEYPOINTS, OFFICIAL_ROLES, ROLE_NAMES
 
 ENGINE_STEP_S = 0.1
 PHYSICS_STEPS_PER_ENGINE_STEP = 10
 PHYSICS_STEP_S = ENGINE_STEP_S / PHYSICS_STEPS_PER_ENGINE_STEP
 #: Scale from the engine's observation coordinates to metres (see the engine's defines.hpp).
 OBSERVATION_TO_METRES = np.array([54.4, -83.6, 1.0])
-ROLE_NAMES = ("GK", "CB", "LB", "RB", "DM", "CM", "LM", "RM", "AM", "CF")
-OFFICIAL_ROLES = ("referee", "linesman", "linesman")
-
-
-@dataclass(frozen=True)
-class MotionClip:
-    """Skeletons of every humanoid and the ball over a clip.
-
-    F frames at `capture_hz`, H humanoids (left team, right team, officials), in the pitch frame.
-    """
-
-    time_s: np.ndarray  # (F,) float64, game time since kick-off, seconds
-    keypoints_m: np.ndarray  # (F, H, 12, 3) float32, metres, order of simgen.skeleton.KEYPOINT_NAMES
-    ball_m: np.ndarray  # (F, 3) float32, ball centre, metres
-    engine_position_m: np.ndarray  # (F, H, 3) float32: the engine's own player position; NaN for officials
-    track_id: np.ndarray  # (H,) int32, stable over the clip
-    team: np.ndarray  # (H,) str: "left", "right" or "official"
-    role: np.ndarray  # (H,) str: GK, CB, ... for players; referee or linesman
-    jersey: np.ndarray  # (H,) int16; -1: the engine has no shirt numbers
-    capture_hz: int
-    metadata: dict = field(default_factory=dict)  # level, seed, engine version...
-
-    @property
-    def num_frames(self) -> int:
-        return len(self.time_s)
-
-    @property
-    def num_humanoids(self) -> int:
-        return len(self.track_id)
 
 
 def _import_engine():

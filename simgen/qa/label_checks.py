@@ -14,9 +14,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from simgen.datasets.frame import Frame
-from simgen.pitch import HALF_LENGTH_M, HALF_WIDTH_M
 from simgen.qa.checks import Problem, plural
 from simgen.qa.tolerances import LabelTolerances
+from simgen.scene.pitch import HALF_LENGTH_M, HALF_WIDTH_M
 
 Locate = Callable[[int, int], tuple[str, int]]
 GROUND_SLACK_M = 0.01  # a box bottom may sit this far below z = 0 (float32 text round trips)

@@ -4,9 +4,9 @@ Box convention (as train/geometry.py): 7 floats (x, y, z, length, width, height,
 and radians; (x, y, z) is the centre, length runs along the heading, width across it, height
 along z, yaw turns the heading counter-clockwise from +x, in (-pi, pi].
 
-The heading is simgen.heading's: the perpendicular of the shoulder line, facing forward, with
+The heading is simgen.body.heading's: the perpendicular of the shoulder line, facing forward, with
 its documented fallbacks (hips line, spine, velocity, +x). In the heading frame the box spans
-the 12 keypoints and the body's volume, taken from the body model itself (simgen.body's
+the 12 keypoints and the body's volume, taken from the body model itself (simgen.body.mesh's
 `body_extent`, exact for its parts' ellipsoids) rather than from fixed margins, so the body
 mesh lies inside and the box is tight around it, in any pose and under any fallback heading.
 (Fixed margins around the keypoints would have to reach 0.45 m, the hands, beyond the
@@ -22,14 +22,17 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from simgen.body import body_extent
-from simgen.heading import as_keypoints, heading
-
+from simgen.body.heading import as_keypoints, heading
+from simgen.body.mesh import body_extent
+from simgen.motion.clip import MotionClip
+from simgen.motion.interpolate import interpolate_clip
+from simgen.vocab import KEYPOINT_INDEX
 
 FACE_NAMES = ("front", "back", "left", "right", "top", "bottom")
 #: A body whose lowest point is closer to the ground stands on it: the engine's ankle heights
 #: vary by a few centimetres, and a box bottom should not jitter with them.
 AIRBORNE_M = 0.05
+VELOCITY_DT_S = 0.05  # half-width of the central difference for label velocities
 
 
 @dataclass(frozen=True)
@@ -39,7 +42,6 @@ class Boxes:
     centre_m: NDArray[np.float64]  # (H, 3) box centre, pitch frame
     size_m: NDArray[np.float64]  # (H, 3) length (along the heading), width, height
     yaw_rad: NDArray[np.float64]  # (H,) heading, counter-clockwise from +x, in (-pi, pi]
-    heading_source: NDArray[np.int8]  # (H,) simgen.heading source code (SHOULDERS, HIPS, ...)
 
     @property
     def array(self) -> NDArray[np.float64]:
@@ -66,7 +68,7 @@ def boxes_from_keypoints(keypoints: ArrayLike, velocity_mps: ArrayLike | None = 
     low, high = np.minimum(low, local.min(axis=1)), np.maximum(high, local.max(axis=1))
     low[:, 2] = np.where(low[:, 2] < AIRBORNE_M, 0.0, low[:, 2])
     centre = np.einsum("hk,hki->hi", 0.5 * (low + high), axes)
-    return Boxes(centre_m=centre, size_m=high - low, yaw_rad=facing.yaw_rad, heading_source=facing.source)
+    return Boxes(centre_m=centre, size_m=high - low, yaw_rad=facing.yaw_rad)
 
 
 def box_frame(points: ArrayLike, boxes: Boxes) -> NDArray[np.float64]:
@@ -118,3 +120,14 @@ def frame_labels(
         keypoints_m=np.asarray(keypoints, np.float32),
         num_points=num_points,
     )
+
+
+def label_poses(clip: MotionClip, label_times_s: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+    """Keypoints (F, H, 12, 3), velocities of `middle` (F, H, 3) in m/s and boxes (F, H, 7) at F label times (s)."""
+    times = np.clip(label_times_s[:, None] + np.array([-VELOCITY_DT_S, 0.0, VELOCITY_DT_S]), clip.time_s[0], clip.time_s[-1])
+    keypoints, _ = interpolate_clip(clip, times.reshape(-1))
+    keypoints = keypoints.reshape(len(times), 3, clip.num_humanoids, 12, 3)
+    middle = KEYPOINT_INDEX["middle"]
+    velocity = (keypoints[:, 2, :, middle] - keypoints[:, 0, :, middle]) / (times[:, 2] - times[:, 0])[:, None, None]
+    boxes = boxes_from_keypoints(keypoints[:, 1].reshape(-1, 12, 3), velocity.reshape(-1, 3)).array
+    return keypoints[:, 1], velocity, boxes.reshape(len(times), clip.num_humanoids, 7)

@@ -1,0 +1,27 @@
+"""What the sub-commands share: a parser with a wrapped description, and the common arguments."""
+
+from __future__ import annotations
+
+import argparse
+import textwrap
+from pathlib import Path
+
+
+def add_command(subparsers, name: str, summary: str, description: str) -> argparse.ArgumentParser:
+    """A sub-command's parser: `summary` in `simgen --help`, `description` wrapped at 88 columns in its own."""
+    return subparsers.add_parser(
+        name, help=summary, description=textwrap.fill(description, width=88), formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+
+
+def add_scenario_arguments(parser: argparse.ArgumentParser, output_help: str, frames_help: str) -> None:
+    """SCENARIO, -o OUTPUT, --frames and --seed, as `capture` and `generate` take them."""
+    parser.add_argument("scenario", type=Path, help="scenario YAML file (see scenarios/)")
+    parser.add_argument("-o", "--output", type=Path, required=True, help=output_help)
+    parser.add_argument("--frames", type=int, help=frames_help)
+    parser.add_argument("--seed", type=int, help="random seed (default: the scenario's)")
+
+
+def add_dataset_argument(parser: argparse.ArgumentParser, **kwargs) -> None:
+    """DATASET, a directory that simgen wrote (the commands that read datasets)."""
+    parser.add_argument("dataset", type=Path, metavar="DATASET", help="dataset directory (with manifest.json)", **kwargs)

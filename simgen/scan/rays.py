@@ -1,0 +1,19 @@
+"""Rays: the shots of one sweep of every sensor, in the pitch frame."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+
+@dataclass(frozen=True)
+class Rays:
+    """Shots of one sweep in the pitch frame."""
+
+    origin_m: NDArray[np.float64]  # (N, 3)
+    direction: NDArray[np.float64]  # (N, 3) unit
+    time_s: NDArray[np.float64]  # (N,) game time of each shot
+    sensor: NDArray[np.uint8]  # (N,) index of the sensor in the scenario
+    head: NDArray[np.uint8]  # (N,) index of the head in its sensor
