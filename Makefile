@@ -19,7 +19,7 @@ demo: setup
 	@echo "      pictures and a video of its first 10 s are in $(DEMO_OUT)_view/"
 
 test: setup
-	$(VENV)/bin/python -m pytest -q
+	$(VENV)/bin/python -m pytest -q -rs  # -rs: every skip listed with its reason (none expected)
 
 bench: setup
 	@for bench in benchmarks/bench_*.py; do echo "== $$bench"; $(VENV)/bin/python $$bench || exit 1; done

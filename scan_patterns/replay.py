@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from scan_patterns.shots import Shots, dirs_from_livox, make_shots
 
-# Livox's official files, as shipped with the project (override with $SIMGEN_LIVOX_DIR).
+# Livox's official files, shipped in scan_patterns/reference/ (its README: source, licence).
 OFFICIAL_FILES = {"mid40": "mid40_official_4s.npz", "mid70": "mid70_official_4s.npz"}
 
 
@@ -58,18 +58,18 @@ class PatternFile:
 
 
 def livox_dir() -> Path:
-    """Folder of the official files: $SIMGEN_LIVOX_DIR, else shared/reference/livox beside the repo."""
+    """Folder of the official files: $SIMGEN_LIVOX_DIR, else scan_patterns/reference (shipped)."""
     env = os.environ.get("SIMGEN_LIVOX_DIR")
     if env:
         return Path(env)
-    return Path(__file__).resolve().parents[2] / "shared" / "reference" / "livox"
+    return Path(__file__).resolve().parent / "reference"
 
 
 def resolve(source: str) -> Path:
     """Path of a pattern file: an official name ('mid40', 'mid70') or a path to .npz / .csv."""
     path = livox_dir() / OFFICIAL_FILES[source] if source in OFFICIAL_FILES else Path(source)
     if not path.is_file():
-        hint = " (set SIMGEN_LIVOX_DIR to the folder of Livox's official files)" if source in OFFICIAL_FILES else ""
+        hint = " (set by $SIMGEN_LIVOX_DIR)" if source in OFFICIAL_FILES and os.environ.get("SIMGEN_LIVOX_DIR") else ""
         raise PatternFileNotFound(f"pattern file not found: {path}{hint}")
     return path
 

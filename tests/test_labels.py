@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import MOTION_FIXTURE
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -133,7 +132,6 @@ def test_degenerate_poses_give_finite_boxes(velocity):
     assert _above_ground_overhang(kp, velocity).max() <= TOLERANCE_M
 
 
-@pytest.mark.skipif(not MOTION_FIXTURE.exists(), reason="the captured clip is not committed yet")
 def test_engine_skeletons_face_where_knees_bend_and_players_run(motion_clip):
     """On the engine's skeletons, left x up is the front: bent knees point there, runners move there."""
     kp = motion_clip.keypoints_m.astype(np.float64)  # (F, H, 12, 3)
@@ -147,7 +145,6 @@ def test_engine_skeletons_face_where_knees_bend_and_players_run(motion_clip):
     assert np.median(along) > 0.8
 
 
-@pytest.mark.skipif(not MOTION_FIXTURE.exists(), reason="the captured clip is not committed yet")
 def test_engine_skeletons_get_tight_adult_boxes(motion_clip):
     kp = motion_clip.keypoints_m.reshape(-1, 12, 3)[::7].astype(np.float64)
     boxes = boxes_from_keypoints(kp)

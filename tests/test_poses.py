@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import MOTION_FIXTURE
 
 from simgen.motion.synthetic_poses import ANKLE_HEIGHT_M, PRESETS, Pose, keypoints, random_pose
 from simgen.vocab import KEYPOINT_INDEX as I
@@ -31,7 +30,6 @@ def test_lift_raises_the_lowest_ankle():
     assert kp[[I["left_ankle"], I["right_ankle"]], 2].min() == pytest.approx(ANKLE_HEIGHT_M + 0.4)
 
 
-@pytest.mark.skipif(not MOTION_FIXTURE.exists(), reason="the captured clip is not committed yet")
 def test_segments_match_the_engine(motion_clip):
     """Joints linked by one rigid segment are as far apart as in the engine's skeletons."""
     links = [

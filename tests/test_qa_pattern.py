@@ -48,8 +48,7 @@ def test_the_papers_rose_fails_where_it_differs_from_the_sensor(tmp_path):
 
 
 def test_chromium_shows_the_report_with_every_image_loaded(risley, tmp_path):
-    if not CHROMIUM.exists():
-        pytest.skip("/usr/bin/chromium is missing (Debian package `chromium`; scripts/setup.sh installs it)")
+    assert CHROMIUM.exists(), "/usr/bin/chromium is missing (Debian package `chromium`; `make setup` installs it)"
     out, _ = risley
     url = (out / "index.html").as_uri()
     expected = len(list((out / "plots").glob("*.png")))

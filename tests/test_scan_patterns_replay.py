@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,11 +11,6 @@ import pytest
 import scan_patterns as sp
 from scan_patterns.replay import load_pattern_file, resolve
 from scan_patterns.shots import angle_between_deg, livox_angles
-
-try:
-    resolve("mid40"), resolve("mid70")
-except ValueError as error:  # pragma: no cover - the reference files ship with the project
-    pytest.skip(f"official Livox files not found: {error}", allow_module_level=True)
 
 
 @pytest.mark.parametrize("preset, source", [("mid40-replay", "mid40"), ("mid70-replay", "mid70")])
@@ -62,3 +58,14 @@ def test_livox_csv_layout_loads_like_the_npz(tmp_path):
 def test_missing_file_is_named():
     with pytest.raises(ValueError, match="pattern file not found: .*nowhere.csv"):
         sp.head_shots(sp.HeadSpec("replay", {"file": "/nowhere.csv"}), 0.0, 0.1)
+
+
+def test_official_files_ship_with_the_project_and_the_environment_overrides(tmp_path, monkeypatch):
+    monkeypatch.delenv("SIMGEN_LIVOX_DIR", raising=False)
+    shipped = resolve("mid70")
+    assert shipped.parent == Path(sp.__file__).resolve().parent / "reference"
+    (tmp_path / shipped.name).symlink_to(shipped)
+    monkeypatch.setenv("SIMGEN_LIVOX_DIR", str(tmp_path))
+    assert resolve("mid70") == tmp_path / shipped.name
+    with pytest.raises(ValueError, match=r"mid40_official_4s.npz \(set by \$SIMGEN_LIVOX_DIR\)"):
+        resolve("mid40")

@@ -7,13 +7,8 @@ import pytest
 
 import scan_patterns as sp
 from scan_patterns import fit_risley, risley
-from scan_patterns.replay import load_pattern_file, resolve
+from scan_patterns.replay import load_pattern_file
 from scan_patterns.shots import angle_between_deg
-
-try:
-    resolve("mid40")
-except ValueError as error:  # pragma: no cover - the reference files ship with the project
-    pytest.skip(f"official Livox files not found: {error}", allow_module_level=True)
 
 MID40_HEAD = sp.get_sensor("mid40-risley").heads[0]
 
@@ -28,12 +23,13 @@ def model_4s():
     return sp.head_shots(MID40_HEAD, 0.0, 4.0)
 
 
-def test_every_shot_within_a_hundredth_of_a_degree_of_the_official_file(official, model_4s):
+def test_every_shot_within_2e_5_degrees_of_the_official_file(official, model_4s):
+    """The README's 1e-5 degrees: measured 1.09e-5 at most (float32 output; the file's own precision)."""
     assert len(model_4s) == len(official) == 400_000
     np.testing.assert_allclose(model_4s.t_s, official.t_s, rtol=0, atol=1e-9)
     error_deg = angle_between_deg(model_4s.dirs, official.dirs)
     print(f"risley vs official Mid-40, 400,000 shots: max {error_deg.max():.2e} deg, rms {np.sqrt(np.mean(error_deg**2)):.2e} deg")
-    assert error_deg.max() < 0.01
+    assert error_deg.max() < 2e-5
 
 
 @pytest.mark.parametrize("cell_deg", sp.CELL_SIZES_DEG)
@@ -56,7 +52,7 @@ def test_fit_recovers_the_stored_parameters_from_the_file_alone():
     pattern = load_pattern_file("mid40")
     result = fit_risley.fit(pattern.t_s[::50], pattern.dirs[::50])
     p, stored = result.params, risley.MID40
-    assert result.max_error_deg < 0.01
+    assert result.max_error_deg < 2e-5  # 1.03e-5 measured
     np.testing.assert_allclose(p.wedge_deg, stored.wedge_deg, atol=1e-3)
     np.testing.assert_allclose(p.index, stored.index, atol=1e-5)
     np.testing.assert_allclose(p.rpm, stored.rpm, atol=1e-3)
