@@ -18,6 +18,7 @@ def dataset(tmp_path_factory):
     return simgen.datasets.open(smoke_dataset(tmp_path_factory.getbasetemp(), 6))
 
 
+@pytest.mark.engine  # `simgen generate` makes the dataset
 def test_tracklet_boxes_are_matched_by_track_id(dataset):
     clip = dataset.clips[0]
     sample = load_sample(dataset, clip, 4, tiny_config("late"))

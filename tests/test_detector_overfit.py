@@ -13,6 +13,7 @@ ITERATIONS = 150
 
 
 @pytest.mark.overfit
+@pytest.mark.engine  # `simgen generate` makes the dataset
 def test_late_model_overfits_a_small_clip(tmp_path, tmp_path_factory):
     dataset = str(smoke_dataset(tmp_path_factory.getbasetemp(), 6))  # 4 samples, ~40 objects in range
     # 16 channels: with 8, whether 150 iterations memorise every box depends on the seed (AP 79-95

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from clip_factory import still_clip
 
 from simgen.motion.synthetic_poses import PRESETS, keypoints
 from simgen.render.frame import render_frame
@@ -13,7 +14,6 @@ from simgen.scan.rays import Rays
 from simgen.scenario import NoiseConfig
 from simgen.scene.static import build_static_scene
 from simgen.vocab import BALL
-from tests.test_render import still_clip
 
 HEIGHT_M = 10.0
 

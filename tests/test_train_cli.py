@@ -37,6 +37,7 @@ def trained(tmp_path_factory):
     return dataset, run
 
 
+@pytest.mark.engine  # the `trained` fixture generates its dataset with the engine
 def test_fit_writes_a_checkpoint_and_a_loss_log(trained):
     _, run = trained
     assert (run / "checkpoint.pt").is_file()
@@ -45,6 +46,7 @@ def test_fit_writes_a_checkpoint_and_a_loss_log(trained):
     assert {"loss", "loss_cls", "loss_dir", "loss_loc_0", "loss_loc_2", "lr", "samples_per_s"} <= set(rows[0])
 
 
+@pytest.mark.engine
 def test_eval_writes_ap_for_the_three_boxes(trained, tmp_path, capsys):
     dataset, run = trained
     code, err = call_train(capsys, "eval", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet")
@@ -56,6 +58,7 @@ def test_eval_writes_ap_for_the_three_boxes(trained, tmp_path, capsys):
     assert all(0.0 <= float(r["ap"]) <= 100.0 and int(r["truth"]) > 0 for r in rows)
 
 
+@pytest.mark.engine
 def test_detect_writes_tracklets_and_kitti_labels(trained, tmp_path, capsys):
     dataset, run = trained
     code, err = call_train(capsys, "detect", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet")
@@ -70,6 +73,7 @@ def test_detect_writes_tracklets_and_kitti_labels(trained, tmp_path, capsys):
     assert len(lines) == len(tracklets.frame) and all(len(f) == 16 and f[0] == "Pedestrian" for f in lines)
 
 
+@pytest.mark.engine
 @pytest.mark.parametrize(
     "args, message",
     [
