@@ -1,17 +1,21 @@
-"""Humanoid meshes per second of simgen.body.mesh.body_meshes against building them with trimesh.
+"""Humanoid meshes per second of simgen.body.mesh.body_meshes against trimesh posing the same meshes.
 
-Each call poses H humanoids (random poses of simgen.motion.synthetic_poses spread over the pitch) and returns
-their vertices, shared faces and per-face materials. Baseline, in the same run: the naive
-per-pose build of the same 13 parts with `trimesh.creation.capsule` (similar vertex counts),
-each moved onto its part by `apply_transform`. For scale, the floor: copying an array of the
-same H x V x 3 float32 vertices.
+Each call poses H humanoids (random poses of simgen.motion.synthetic_poses spread over the pitch) and
+returns their vertices, shared faces and per-face materials. Baseline, in the same run, the way a
+trimesh user poses prebuilt meshes: the same part meshes (`part_templates`) and each humanoid's joined
+faces kept once, then per call every part's vertices moved by `trimesh.transformations.transform_points`
+with its rigid frame (`part_frames`, as ours computes them) and each humanoid built as a
+`trimesh.Trimesh`. (Copying per-part `Trimesh` objects, `apply_transform` and
+`trimesh.util.concatenate` was slower still: 6x in a trial.) Both give the same vertices (checked). For scale,
+the floor: copying an array of the same H x V x 3 float32 vertices.
+
+In the renderer `body_meshes` runs once per clip (`part_templates`); per frame only `part_frames`
+moves the parts, timed here too.
 
 Usage: .venv/bin/python benchmarks/bench_body.py [--out benchmarks/results/body.md]
 """
 
 import argparse
-import os
-import platform
 import time
 import timeit
 from collections.abc import Callable
@@ -19,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+from table import machine, markdown_table, row, write_results
+from trimesh.transformations import transform_points
 
 from simgen.body import mesh as body
 from simgen.motion.synthetic_poses import keypoints, random_pose
@@ -28,23 +34,23 @@ HUMANOIDS = (1, 25, 100)
 REPEATS = 5  # timing runs of at least 0.2 s each; the best counts
 
 
-def trimesh_baseline(kp: np.ndarray) -> list[trimesh.Trimesh]:
-    """One trimesh capsule per part, from end 0's cap centre to end 1's, mean radius of both."""
-    centres = body._rig(kp)[:, :, :, 3]  # (H, P, 2, 3)
-    radius = body._HALF_AXES_M[:, :, :2].mean(axis=(1, 2))
-    meshes = []
-    for ends in centres:
-        for part, (start, end), r in zip(body._PARTS, ends, radius):
-            axis = end - start
-            transform = trimesh.geometry.align_vectors([0.0, 0.0, 1.0], axis)
-            transform[:3, 3] = start
-            capsule = trimesh.creation.capsule(
-                height=float(np.linalg.norm(axis)),
-                radius=float(r),
-                count=[part.segments, 2 * part.cap_rings + 2],
-            )
-            meshes.append(capsule.apply_transform(transform))
-    return meshes
+def trimesh_templates(kp: np.ndarray, teams: list[str]) -> list[tuple[list[np.ndarray], np.ndarray]]:
+    """Per humanoid: its parts' vertices in part coordinates and the joined faces (built once)."""
+    parts = body.part_templates(kp, teams)
+    starts = np.cumsum([0] + [len(vertices[0]) for vertices, _, _ in parts])
+    faces = np.concatenate([part_faces + start for (_, part_faces, _), start in zip(parts, starts)])
+    return [([vertices[h] for vertices, _, _ in parts], faces) for h in range(len(kp))]
+
+
+def trimesh_pose(templates: list[tuple[list[np.ndarray], np.ndarray]], kp: np.ndarray) -> list[trimesh.Trimesh]:
+    """One Trimesh per humanoid: every part's vertices moved onto its frame by trimesh, then joined."""
+    rotation, origin = body.part_frames(kp)
+    transform = np.zeros(rotation.shape[:2] + (4, 4))
+    transform[..., :3, :3], transform[..., :3, 3], transform[..., 3, 3] = rotation, origin, 1.0
+    return [
+        trimesh.Trimesh(np.concatenate([transform_points(v, t) for v, t in zip(parts, transforms)]), faces, process=False)
+        for (parts, faces), transforms in zip(templates, transform)
+    ]
 
 
 def seconds_per_call(fn: Callable[[], object]) -> float:
@@ -54,49 +60,50 @@ def seconds_per_call(fn: Callable[[], object]) -> float:
     return min(timer.repeat(repeat=REPEATS, number=number)) / number
 
 
-def row(n: int, rng: np.random.Generator) -> str:
+def measure(n: int, rng: np.random.Generator) -> list[str]:
     """The table row for n humanoids in random poses over the pitch."""
     poses = [random_pose(rng) for _ in range(n)]
     kp = np.stack([keypoints(p, rng.uniform(-np.pi, np.pi), rng.uniform(-40, 40, 2)) for p in poses])
     teams = [TEAM_NAMES[i % len(TEAM_NAMES)] for i in range(n)]
     vertices = body.body_meshes(kp, teams).vertices_m
+    templates = trimesh_templates(kp, teams)
+    theirs_vertices = np.stack([m.vertices for m in trimesh_pose(templates, kp)])
+    np.testing.assert_allclose(theirs_vertices, vertices, atol=1e-5)  # the same meshes
     ours = seconds_per_call(lambda: body.body_meshes(kp, teams))
-    theirs = seconds_per_call(lambda: trimesh_baseline(kp))
+    theirs = seconds_per_call(lambda: trimesh_pose(templates, kp))
+    frames = seconds_per_call(lambda: body.part_frames(kp))
     floor = seconds_per_call(vertices.copy)
-    text = (
-        f"| {n} | {ours * 1e6:,.0f} | {n / ours:,.0f} | {n / theirs:,.0f} | {theirs / ours:.0f}x "
-        f"| {floor * 1e6:,.1f} |"
-    )
-    print(text, flush=True)
-    return text
+    cells = [n, f"{ours * 1e6:,.0f}", f"{n / ours:,.0f}", f"{n / theirs:,.0f}", f"{theirs / ours:.1f}x",
+             f"{frames * 1e6:,.1f}", f"{floor * 1e6:,.1f}"]
+    print(row(cells), flush=True)
+    return cells
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "body.md")
+    parser.add_argument("--out", type=Path, default=None, help="results file (default: benchmarks/results/body.md)")
     args = parser.parse_args()
     rng = np.random.default_rng(0)
-    rows = [row(n, rng) for n in HUMANOIDS]
-    baseline_faces = sum(len(m.faces) for m in trimesh_baseline(np.stack([keypoints(random_pose(rng))])))
-    header = [
-        "# simgen.body.mesh benchmark",
-        "",
-        f"Written by `benchmarks/bench_body.py`; best of {REPEATS} timing runs, in CPU time of the "
-        "process (`time.process_time`: on a shared machine, wall time runs higher). Python "
-        f"{platform.python_version()}, numpy {np.__version__}, trimesh {trimesh.__version__}, "
-        f"{platform.machine()} with {os.cpu_count()} CPUs at load {os.getloadavg()[0]:.1f}.",
-        "",
-        f"One call poses H humanoids of {body.NUM_VERTICES} vertices and {body.NUM_FACES} triangles "
-        f"each ({len(body.PART_NAMES)} closed parts). Baseline: building the same parts per pose with "
-        f"`trimesh.creation.capsule` and `apply_transform` ({baseline_faces} triangles a humanoid). "
-        "Floor: copying the H x V x 3 float32 vertex array.",
-        "",
-        "| humanoids | us per call | meshes/s | trimesh meshes/s | speed-up | copy floor, us |",
-        "| ---: | ---: | ---: | ---: | ---: | ---: |",
-    ]
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text("\n".join(header + rows) + "\n")
-    print(f"wrote {args.out}")
+    rows = [measure(n, rng) for n in HUMANOIDS]
+    write_results(
+        "body",
+        "simgen.body.mesh benchmark",
+        f"Written by `benchmarks/bench_body.py`; best of {REPEATS} timing runs, in CPU time of the process "
+        "(`time.process_time`: on a shared machine, wall time runs higher). "
+        + machine(numpy=np.__version__, trimesh=trimesh.__version__),
+        f"One call poses H humanoids of {body.NUM_VERTICES} vertices and {body.NUM_FACES} triangles each "
+        f"({len(body.PART_NAMES)} closed parts). Baseline: trimesh posing the same part meshes, prebuilt once: per "
+        "call `trimesh.transformations.transform_points` of every part's vertices with its frame, and a `Trimesh` "
+        "per humanoid (the same vertices as ours). `part_frames`: the per-frame cost "
+        "in the renderer, which builds the meshes once per clip and then moves only the parts' frames. Floor: "
+        "copying the H x V x 3 float32 vertex array.",
+        markdown_table(
+            ["humanoids", "us per call", "meshes/s", "trimesh meshes/s", "speed-up", "part_frames, us", "copy floor, us"],
+            rows,
+            left=0,
+        ),
+        out=args.out,
+    )
 
 
 if __name__ == "__main__":

@@ -11,11 +11,10 @@ Writes benchmarks/results/capture.md.
 from __future__ import annotations
 
 import argparse
-import platform
 import time
-from pathlib import Path
 
 import numpy as np
+from table import machine, markdown_table, write_results
 
 from simgen.motion.engine import FootballEngine
 from simgen.scenario import MotionConfig
@@ -47,18 +46,19 @@ def main() -> None:
     engine.close()
     base, cap = float(np.median(baseline)), float(np.median(capture))
     ratio = cap / base
-    table = (
-        "| measure | steps/s (median) | ratio to baseline |\n|---|---|---|\n"
-        f"| engine stepping, export off (baseline) | {base:.0f} | 1.00 |\n"
-        f"| engine stepping + 12-keypoint export of 25 humanoids at 100 Hz | {cap:.0f} | {ratio:.2f} |\n"
+    write_results(
+        "capture",
+        "Capture benchmark",
+        markdown_table(
+            ["measure", "steps/s (median)", "ratio to baseline"],
+            [
+                ["engine stepping, export off (baseline)", f"{base:.0f}", "1.00"],
+                ["engine stepping + 12-keypoint export of 25 humanoids at 100 Hz", f"{cap:.0f}", f"{ratio:.2f}"],
+            ],
+        ),
+        f"{args.rounds} rounds x {args.steps} steps (1 step = 100 ms of game time = 10 frames at 100 Hz), one core. "
+        f"Export cost: {100 * (1 - ratio):.1f} %. " + machine(numpy=np.__version__),
     )
-    note = (
-        f"\n{args.rounds} rounds x {args.steps} steps (1 step = 100 ms of game time = 10 frames at 100 Hz), "
-        f"{platform.processor() or platform.machine()}, one core. Export cost: {100 * (1 - ratio):.1f} %.\n"
-    )
-    print(table + note)
-    out = Path(__file__).parent / "results" / "capture.md"
-    out.write_text("# Capture benchmark\n\n" + table + note)
 
 
 if __name__ == "__main__":

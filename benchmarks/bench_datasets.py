@@ -1,12 +1,15 @@
-"""Bytes per frame and write / read frames per second of each dataset format, against raw numpy.
+"""Bytes per frame and write / read frames per second of each dataset format, against what a user would pick.
 
 Frames shaped like a Mid-100 x1 frame: about 25,000 points and 25 humanoids, from
 tests/dataset_factory.py (synthetic: ground points round a sensor at the touchline with 2 cm
 range noise, points on the humanoids, random intensities; real scans compress somewhat
 differently). Write: `write_clip` + `finish_dataset` of one clip (every file hashed for the
-manifest). Read: `simgen.datasets.open` and every frame, sha256 of every file checked (the
-default). Baseline, on the same frames in the same run: every array of the frame (points and
-labels) in one uncompressed `numpy.savez` per frame, read back with `numpy.load`.
+manifest). Read: `simgen.datasets.open` and every frame's points, with every file's sha256 checked
+(the default) and without (`verify=False`). Baselines, on the same frames in the same run, holding
+the same fields: `numpy.savez_compressed` of every array of the frame (points and labels), one file
+per frame, read back with `numpy.load` (the ratios are against it); and the same Parquet tables as
+ours written with pyarrow's defaults (`pq.write_table`: snappy, no byte-stream-split), read back
+with `pq.read_table` and split into frames.
 
 Usage: .venv/bin/python benchmarks/bench_datasets.py [--frames 40] [--out benchmarks/results/datasets.md]
 """
@@ -14,8 +17,7 @@ Usage: .venv/bin/python benchmarks/bench_datasets.py [--frames 40] [--out benchm
 from __future__ import annotations
 
 import argparse
-import os
-import platform
+import functools
 import shutil
 import sys
 import tempfile
@@ -25,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow
+import pyarrow.parquet as pq
+from table import machine, markdown_table, write_results
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
@@ -32,7 +36,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 from dataset_factory import make_clip, sensors  # noqa: E402
 
 import simgen.datasets  # noqa: E402
-from simgen.datasets import FORMATS, finish_dataset, write_clip  # noqa: E402
+from simgen.datasets import FORMATS, finish_dataset, parquet, write_clip  # noqa: E402
 
 POINTS = 25_000
 HUMANOIDS = 25
@@ -53,76 +57,108 @@ def write_npz(root: Path, frames) -> None:
     root.mkdir(parents=True, exist_ok=True)
     for frame in frames:
         arrays = {**{f"scan_{k}": v for k, v in vars(frame.scan).items() if isinstance(v, np.ndarray)}, **vars(frame.labels)}
-        np.savez(root / f"{frame.index:06d}.npz", **arrays)
+        np.savez_compressed(root / f"{frame.index:06d}.npz", **arrays)
 
 
 def read_npz(root: Path) -> None:
     for path in sorted(root.glob("*.npz")):
         with np.load(path, allow_pickle=False) as data:
-            for name in data.files:
-                data[name]
+            arrays = {name: data[name] for name in data.files}
+        arrays["scan_points_m"].sum()
 
 
-def read_dataset(root: Path) -> None:
-    for frame in simgen.datasets.open(root):
+def write_parquet_defaults(root: Path, frames) -> None:
+    """Our four tables, each one file written with pyarrow's default options."""
+    root.mkdir(parents=True, exist_ok=True)
+    tables = {
+        "frames": parquet.frames_table(frames),
+        "points": pyarrow.concat_tables(parquet.points_table(frame) for frame in frames),
+        "boxes": parquet.boxes_table(frames),
+        "sensors": parquet.sensors_table(sensors()),
+    }
+    for name, table in tables.items():
+        pq.write_table(table, root / f"{name}.parquet")
+
+
+def read_parquet_defaults(root: Path) -> None:
+    tables = {path.stem: pq.read_table(path) for path in root.glob("*.parquet")}
+    points = tables["points"]
+    xyz = np.column_stack([points[axis].to_numpy() for axis in "xyz"])
+    for frame_points in np.split(xyz, np.cumsum(tables["frames"]["num_points"].to_numpy())[:-1]):
+        frame_points.sum()
+    for table in tables.values():
+        for column in table.columns:
+            column.to_numpy()
+
+
+def read_dataset(root: Path, verify: bool = True) -> None:
+    for frame in simgen.datasets.open_dataset(root, verify):
         frame.points_m.sum()
 
 
-def measure(frames, work: Path) -> list[tuple[str, float, float, float]]:
-    """(name, bytes per frame, write frames/s, read frames/s), the baseline first."""
+Case = tuple[str, Callable[[Path], None], Callable[[Path], None], Callable[[Path], None]]
+
+
+def measure(frames, work: Path) -> list[tuple[str, float, float, float, float]]:
+    """(name, bytes per frame, write, read, unchecked read frames/s), the baseline first."""
     count = len(frames)
-    rows = []
-    cases = [("numpy.savez (baseline)", lambda root: write_npz(root, frames), read_npz)]
+    cases: list[Case] = [
+        ("numpy.savez_compressed (baseline)", lambda root: write_npz(root, frames), read_npz, read_npz),
+        ("Parquet, pyarrow defaults", lambda root: write_parquet_defaults(root, frames), read_parquet_defaults,
+         read_parquet_defaults),
+    ]
     for format in FORMATS:
         def write(root: Path, format=format) -> None:
             record = write_clip(root, format, frames, sensors(), 0)
             finish_dataset(root, format, [record], sensors(), {"name": "bench"}, 0)
 
-        cases.append((format, write, read_dataset))
-    for name, write, read in cases:
-        root = work / name.split()[0]
+        cases.append((format, write, read_dataset, functools.partial(read_dataset, verify=False)))
+    rows = []
+    for index, (name, write, read, read_unchecked) in enumerate(cases):
+        root = work / str(index)
         write_s = best_seconds(lambda: write(root), lambda: shutil.rmtree(root, ignore_errors=True))
         read_s = best_seconds(lambda: read(root), lambda: None)
+        unchecked_s = read_s if read_unchecked is read else best_seconds(lambda: read_unchecked(root), lambda: None)
         size = sum(p.stat().st_size for p in root.rglob("*") if p.is_file())
-        rows.append((name, size / count, count / write_s, count / read_s))
-        print(f"{name}: {size / count:,.0f} B/frame, {count / write_s:,.1f} written, {count / read_s:,.1f} read per s", flush=True)
+        rows.append((name, size / count, count / write_s, count / read_s, count / unchecked_s))
+        print(f"{name}: {size / count:,.0f} B/frame, {count / write_s:,.1f} written, {count / read_s:,.1f} read "
+              f"({count / unchecked_s:,.1f} unchecked) per s", flush=True)
     return rows
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=40)
-    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "datasets.md")
+    parser.add_argument("--out", type=Path, default=None, help="results file (default: benchmarks/results/datasets.md)")
     args = parser.parse_args()
     frames = make_clip("clip_0000", args.frames, points=POINTS, humanoids=HUMANOIDS, seed=0)
     with tempfile.TemporaryDirectory() as work:
         rows = measure(frames, Path(work))
-    _, base_bytes, base_write, base_read = rows[0]
+    base = rows[0][1:]
     table = [
-        f"| {name} | {size:,.0f} | {size / base_bytes:.2f} | {write:,.1f} | {write / base_write:.2f} "
-        f"| {read:,.1f} | {read / base_read:.2f} |"
-        for name, size, write, read in rows
+        [name, *(f"{value:,.0f}" if i == 0 else f"{value:,.1f}" for i, value in enumerate(values)),
+         *(f"{value / baseline:.2f}" for value, baseline in zip(values, base))]
+        for name, *values in rows
     ]
     points = np.mean([len(f.scan.points_m) for f in frames])
-    lines = [
-        "# Dataset formats benchmark",
-        "",
-        f"Written by `benchmarks/bench_datasets.py`; {args.frames} frames of {points:,.0f} points and {HUMANOIDS} humanoids on "
-        f"average, best of {REPEATS} runs. Python {platform.python_version()}, numpy {np.__version__}, pyarrow "
-        f"{pyarrow.__version__}, {platform.machine()} with {os.cpu_count()} CPUs at load {os.getloadavg()[0]:.1f} (a shared "
-        "machine: compare the ratios, not the absolute rates).",
-        "",
-        "Baseline: every array of the frame, points and labels, in one uncompressed `numpy.savez` per frame. Parquet holds "
-        "all of it too (zstd, byte-stream-split floats); KITTI and OpenPCDet hold x, y, z, intensity and the boxes. Write "
-        "includes hashing every file for the manifest; read includes checking every file's sha256.",
-        "",
-        "| format | bytes/frame | vs baseline | write frames/s | vs baseline | read frames/s | vs baseline |",
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
-        *table,
-    ]
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text("\n".join(lines) + "\n")
-    print(f"wrote {args.out}")
+    write_results(
+        "datasets",
+        "Dataset formats benchmark",
+        f"Written by `benchmarks/bench_datasets.py`; {args.frames} frames of {points:,.0f} points and {HUMANOIDS} "
+        f"humanoids on average, best of {REPEATS} runs. " + machine(numpy=np.__version__, pyarrow=pyarrow.__version__),
+        "Baselines, holding the same fields as our Parquet: every array of the frame (points and labels) in one "
+        "`numpy.savez_compressed` per frame (the ratios are against it), and our Parquet tables written with "
+        "pyarrow's defaults (`pq.write_table`: snappy, dictionary, plain floats; read with `pq.read_table`). Ours, "
+        "`parquet`: zstd, byte-stream-split floats, one row group per frame; KITTI and OpenPCDet hold x, y, z, "
+        "intensity and the boxes. Our write includes hashing every file for the manifest and the dataset card; our "
+        "read checks every file's sha256 (the default; the last columns: `verify=False`). The baselines do neither.",
+        markdown_table(
+            ["format", "bytes/frame", "write frames/s", "read frames/s", "read, sha256 unchecked", "bytes vs baseline",
+             "write vs baseline", "read vs baseline", "unchecked read vs baseline"],
+            table,
+        ),
+        out=args.out,
+    )
 
 
 if __name__ == "__main__":

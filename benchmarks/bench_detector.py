@@ -12,8 +12,6 @@ Usage: .venv/bin/python benchmarks/bench_detector.py [--out benchmarks/results/d
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import subprocess
 import sys
 import tempfile
@@ -21,6 +19,7 @@ import time
 from pathlib import Path
 
 import torch
+from table import machine, markdown_table, write_results
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -95,7 +94,7 @@ def inference_rate(name: str, dataset: str, frames: int) -> float:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "detector.md"))
+    parser.add_argument("--out", type=Path, default=None, help="results file (default: benchmarks/results/detector.md)")
     parser.add_argument("--steps", type=int, default=20, help="timed training steps per model")
     parser.add_argument("--frames", type=int, default=30, help="timed inference frames per model")
     args = parser.parse_args()
@@ -103,28 +102,24 @@ def main() -> int:
         dataset = make_dataset(Path(folder))
         loading = loading_rate(dataset, 2 * args.frames)
         rates = {m: (training_rate(m, dataset, args.steps), inference_rate(m, dataset, args.frames)) for m in MODELS}
-    load = os.getloadavg()[0]
-    lines = [
-        "# Detector throughput on CPU",
-        "",
-        f"Written by `benchmarks/bench_detector.py --steps {args.steps} --frames {args.frames}`. Python "
-        f"{platform.python_version()}, torch {torch.__version__}, {os.cpu_count()} CPUs ({torch.get_num_threads()} torch threads) "
-        f"at load {load:.1f} (a shared machine: compare the ratios, not the absolute rates).",
-        "",
+    single_train, single_infer = rates["single"]
+    rows = [
+        [name, f"{train:.2f}", f"{train / loading:.3f}", f"{train / single_train:.2f}", f"{infer:.2f}",
+         f"{infer / loading:.3f}", f"{infer / single_infer:.2f}"]
+        for name, (train, infer) in rates.items()
+    ]
+    write_results(
+        "detector",
+        "Detector throughput on CPU",
+        f"Written by `benchmarks/bench_detector.py --steps {args.steps} --frames {args.frames}`; "
+        f"{torch.get_num_threads()} torch threads. " + machine(torch=torch.__version__),
         "Configs as committed (train/configs/): the paper's range [-40, 40] x [-40, 40] x [-0.1, 2.5] m, 0.25 m pillars "
         "(320 x 320), backbone 4/6/6 layers of 8/16/32 channels, output 160 x 160 x 2 anchors. Data: one 12-frame clip of "
         "scenarios/paper_x1.yaml. Baseline `loading`: reading three frames through simgen.datasets, crop, pillar "
         f"indices and anchor targets in one process: {loading:.2f} samples/s.",
-        "",
-        "| model | train samples/s | vs loading | vs single | inference frames/s | vs loading | vs single |",
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
-    ]
-    single_train, single_infer = rates["single"]
-    for name, (train, infer) in rates.items():
-        lines.append(f"| {name} | {train:.2f} | {train / loading:.3f} | {train / single_train:.2f} | {infer:.2f} | "
-                     f"{infer / loading:.3f} | {infer / single_infer:.2f} |")
-    Path(args.out).write_text("\n".join(lines) + "\n")
-    print("\n".join(lines[-5:]))
+        markdown_table(["model", "train samples/s", "vs loading", "vs single", "inference frames/s", "vs loading", "vs single"], rows),
+        out=args.out,
+    )
     return 0
 
 

@@ -17,6 +17,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from table import machine, markdown_table, write_results
+
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "paper_x1.yaml"
 
@@ -47,26 +49,25 @@ def main() -> None:
         two_s = _generate(tmp / "two", *common, "--workers", "2")
         frames, points, parquet_bytes = _totals(tmp / "one")
         rows = [
-            f"| 1 worker (baseline) | {frames} | {one_s:.1f} | {frames / one_s:.1f} | 1.00 |",
-            f"| 2 workers | {frames} | {two_s:.1f} | {frames / two_s:.1f} | {one_s / two_s:.2f} |",
+            ["1 worker (baseline)", frames, f"{one_s:.1f}", f"{frames / one_s:.1f}", "1.00"],
+            ["2 workers", frames, f"{two_s:.1f}", f"{frames / two_s:.1f}", f"{one_s / two_s:.2f}"],
         ]
         raw = points * 16 / frames  # float32 x, y, z, intensity
-        sizes = [f"| raw float32 x, y, z, intensity (baseline) | {raw:,.0f} | 1.00 |"]
-        sizes.append(f"| parquet (all fields) | {parquet_bytes / frames:,.0f} | {parquet_bytes / frames / raw:.2f} |")
+        sizes = [["raw float32 x, y, z, intensity (baseline)", f"{raw:,.0f}", "1.00"]]
+        sizes.append(["parquet (all fields)", f"{parquet_bytes / frames:,.0f}", f"{parquet_bytes / frames / raw:.2f}"])
         for fmt in ("kitti", "kitti_tracking", "openpcdet"):
             _generate(tmp / fmt, "--clips", "1", "--frames", str(args.frames), "--format", fmt)
             f_frames, f_points, f_bytes = _totals(tmp / fmt)
-            sizes.append(f"| {fmt} | {f_bytes / f_frames:,.0f} | {f_bytes / f_frames / (f_points * 16 / f_frames):.2f} |")
-    text = (
-        "# Generation benchmark\n\n"
+            sizes.append([fmt, f"{f_bytes / f_frames:,.0f}", f"{f_bytes / f_frames / (f_points * 16 / f_frames):.2f}"])
+    write_results(
+        "generate",
+        "Generation benchmark",
         f"`simgen generate scenarios/paper_x1.yaml --clips {args.clips} --frames {args.frames}` end to end "
-        "(engine capture at 100 Hz, Mid-100 rendering, labels, Parquet, manifest) on this machine's 2 cores.\n\n"
-        "| run | frames | seconds | frames/s | speed-up |\n|---|---|---|---|---|\n" + "\n".join(rows) + "\n\n"
-        "Bytes per frame (paper_x1 frames; the KITTI-style formats from one clip):\n\n"
-        "| format | bytes/frame | ratio to raw |\n|---|---|---|\n" + "\n".join(sizes) + "\n"
+        "(engine capture at 100 Hz, Mid-100 rendering, labels, Parquet, manifest). " + machine(),
+        markdown_table(["run", "frames", "seconds", "frames/s", "speed-up"], rows),
+        "Bytes per frame (paper_x1 frames; the KITTI-style formats from one clip):",
+        markdown_table(["format", "bytes/frame", "ratio to raw"], sizes),
     )
-    print(text)
-    (ROOT / "benchmarks" / "results" / "generate.md").write_text(text)
 
 
 if __name__ == "__main__":

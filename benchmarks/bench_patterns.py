@@ -10,14 +10,13 @@ Usage: .venv/bin/python benchmarks/bench_patterns.py [--out benchmarks/results/p
 """
 
 import argparse
-import os
-import platform
 import timeit
 import warnings
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from table import machine, markdown_table, row, write_results
 
 import scan_patterns as sp
 
@@ -47,7 +46,7 @@ def cases() -> list[tuple[str, str, Callable[[], sp.Shots]]]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "patterns.md")
+    parser.add_argument("--out", type=Path, default=None, help="results file (default: benchmarks/results/patterns.md)")
     args = parser.parse_args()
     warnings.simplefilter("error", sp.PatternLoopWarning)  # the windows stay inside the file
     rows = []
@@ -60,31 +59,21 @@ def main() -> None:
         mine = seconds_per_call(generate)
         if pattern == "risley":
             risley_rates.append(n / mine)
-        rows.append(
-            f"| {pattern} | {case} | {n:,} | {mine * 1e3:.2f} | {n / mine / 1e6:.1f} | {n / baseline / 1e6:.1f} "
-            f"| {baseline / mine:.2f} |"
-        )
-        print(rows[-1], flush=True)
-    load = os.getloadavg()[0]
+        rows.append([pattern, case, f"{n:,}", f"{mine * 1e3:.2f}", f"{n / mine / 1e6:.1f}", f"{n / baseline / 1e6:.1f}",
+                     f"{baseline / mine:.2f}"])
+        print(row(rows[-1]), flush=True)
     verdict = "met" if min(risley_rates) >= TARGET_RISLEY_SHOTS_PER_S else "NOT met"
-    header = [
-        "# scan_patterns benchmark",
-        "",
-        f"Written by `benchmarks/bench_patterns.py`; best of {REPEATS} timing runs. Python "
-        f"{platform.python_version()}, numpy {np.__version__}, {platform.machine()} with {os.cpu_count()} CPUs "
-        f"at load {load:.1f} (a shared machine: compare the ratios, not the absolute rates).",
-        "",
+    write_results(
+        "patterns",
+        "scan_patterns benchmark",
+        f"Written by `benchmarks/bench_patterns.py`; best of {REPEATS} timing runs. " + machine(numpy=np.__version__),
         "A shot is its time (float64) and head-frame unit direction (float32), as the renderer gets "
         "them. Baseline: `np.sin` over the same number of float64 values, in the same run; ratio = "
-        "shots/s / sines/s (1.0: a shot costs one float64 sine).",
+        "shots/s / sines/s (1.0: a shot costs one float64 sine).\n"
         f"Target for `risley`: at least {TARGET_RISLEY_SHOTS_PER_S / 1e6:.0f} M shots/s ({verdict}).",
-        "",
-        "| pattern | case | shots | ms per call | M shots/s | M np.sin/s (baseline) | ratio |",
-        "| --- | --- | ---: | ---: | ---: | ---: | ---: |",
-    ]
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text("\n".join(header + rows) + "\n")
-    print(f"wrote {args.out}")
+        markdown_table(["pattern", "case", "shots", "ms per call", "M shots/s", "M np.sin/s (baseline)", "ratio"], rows, left=2),
+        out=args.out,
+    )
 
 
 if __name__ == "__main__":

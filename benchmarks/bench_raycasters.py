@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import open3d as o3d
 from embreex import mesh_construction, rtcore_scene
+from table import machine, markdown_table, write_results
 
 from simgen.body.mesh import body_meshes
 from simgen.motion.engine import capture_motion
@@ -88,17 +89,16 @@ def main() -> None:
         emb_build, emb_cast, emb_t = _embreex(vertices, faces, origins, directions)
         hit = np.isfinite(o3d_t) & (emb_t < 1e30)
         agree = np.abs(o3d_t[hit] - emb_t[hit]).max() if hit.any() else 0.0
-        rows.append(
-            f"| {name} | {len(faces):,} | {o3d_build * 1e3:.2f} | {o3d_cast * 1e3:.2f} | {emb_build * 1e3:.2f} | {emb_cast * 1e3:.2f} "
-            f"| {o3d_cast / emb_cast:.2f} | {agree:.1e} |"
-        )
-    text = (
-        "# Ray casters\n\nOne thread each, best of 20. Ratio: Open3D cast time / embreex cast time (above 1: embreex casts faster).\n\n"
-        "| workload | triangles | Open3D build ms | Open3D cast ms | embreex build ms | embreex cast ms | ratio | max |t| difference, m |\n"
-        "|---|---|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n"
+        rows.append([name, f"{len(faces):,}", f"{o3d_build * 1e3:.2f}", f"{o3d_cast * 1e3:.2f}", f"{emb_build * 1e3:.2f}",
+                     f"{emb_cast * 1e3:.2f}", f"{o3d_cast / emb_cast:.2f}", f"{agree:.1e}"])
+    write_results(
+        "raycasters",
+        "Ray casters",
+        f"One thread each, best of {REPEATS}. Ratio: Open3D cast time / embreex cast time (above 1: embreex casts "
+        "faster). " + machine(open3d=o3d.__version__),
+        markdown_table(["workload", "triangles", "Open3D build ms", "Open3D cast ms", "embreex build ms", "embreex cast ms",
+                        "ratio", "max |t| difference, m"], rows),
     )
-    print(text)
-    (ROOT / "benchmarks" / "results" / "raycasters.md").write_text(text)
 
 
 if __name__ == "__main__":

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import open3d as o3d
+from table import machine, markdown_table, write_results
 
 from simgen.body.mesh import body_meshes
 from simgen.motion.engine import capture_motion
@@ -102,24 +103,21 @@ def main() -> None:
         done = sum(frames for frames, _ in results)
         both_s = max(seconds for _, seconds in results)
         fps = args.frames / ours_s
-        rows.append(
-            f"| Mid-100 x{density:g} | {rays / args.frames:,.0f} | {fps:.1f} | {rays / ours_s / 1e6:.2f} "
-            f"| {bare_rays / bare_s / 1e6:.2f} | {(rays / ours_s) / (bare_rays / bare_s):.2f} "
-            f"| {done / both_s:.1f} | {done / both_s / default.scan.frame_rate_hz:.1f}x |"
-        )
-    table = (
-        "| sensor | rays/frame | frames/s, 1 core | Mrays/s, ours | Mrays/s, bare Open3D cast | ratio | frames/s, 2 cores | real time (10 Hz), 2 cores |\n"
-        "|---|---|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n"
-    )
-    note = (
-        f"\n{args.frames} frames of the default scenario (its whole clip) per measure, best of {args.repeats} interleaved measures of each (2 cores: "
+        rows.append([f"Mid-100 x{density:g}", f"{rays / args.frames:,.0f}", f"{fps:.1f}", f"{rays / ours_s / 1e6:.2f}",
+                     f"{bare_rays / bare_s / 1e6:.2f}", f"{(rays / ours_s) / (bare_rays / bare_s):.2f}",
+                     f"{done / both_s:.1f}", f"{done / both_s / default.scan.frame_rate_hz:.1f}x"])
+    write_results(
+        "render",
+        "Rendering benchmark",
+        markdown_table(["sensor", "rays/frame", "frames/s, 1 core", "Mrays/s, ours", "Mrays/s, bare Open3D cast", "ratio",
+                        "frames/s, 2 cores", "real time (10 Hz), 2 cores"], rows),
+        f"{args.frames} frames of the default scenario (its whole clip) per measure, best of {args.repeats} interleaved measures of each (2 cores: "
         "two clips, one per process, once). Ours is end to end (shots, posing per 10 ms "
         "slice, casting, noise, labels); the bare cast is Open3D's RaycastingScene casting the same rays on one "
         "thread against the scene frozen at mid-frame (BVH built beforehand, not timed). Including the first "
-        "cast (the BVH build) would add the scene build every frame, which the renderer never does.\n"
+        "cast (the BVH build) would add the scene build every frame, which the renderer never does. "
+        + machine(numpy=np.__version__, open3d=o3d.__version__),
     )
-    print(table + note)
-    (ROOT / "benchmarks" / "results" / "render.md").write_text("# Rendering benchmark\n\n" + table + note)
 
 
 if __name__ == "__main__":

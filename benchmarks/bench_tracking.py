@@ -21,7 +21,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # one core: numpy's BLAS threads off
 
 import argparse  # noqa: E402
-import platform  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Callable  # noqa: E402
@@ -29,6 +28,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 from scipy.optimize import linear_sum_assignment  # noqa: E402
+from table import machine, markdown_table, row, write_results  # noqa: E402
 
 from train.geometry import diou_3d  # noqa: E402
 from train.metrics.hota import hota  # noqa: E402
@@ -66,7 +66,7 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=600)
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "tracking.md")
+    parser.add_argument("--out", type=Path, default=None, help="results file (default: benchmarks/results/tracking.md)")
     args = parser.parse_args()
 
     clip = simulate_players(PlayersConfig(n_frames=args.frames), np.random.default_rng(args.seed))
@@ -94,15 +94,15 @@ def main() -> None:
             rates[name].append(frames_per_second(fn, args.frames))
     median = {name: statistics.median(r) for name, r in rates.items()}
     speed_rows = [
-        f"| {label} | {median[name]:,.0f} | {median[name] / median['baseline']:.2f} |"
+        [label, f"{median[name]:,.0f}", f"{median[name] / median['baseline']:.2f}"]
         for name, label in [
             ("baseline", "baseline: 2 x diou_3d 22x22 + linear_sum_assignment"),
             ("ours", "3D DIoU tracker (ours, all modules on)"),
             ("AB3DMOT", "AB3DMOT"),
         ]
     ]
-    for row in speed_rows:
-        print(row, flush=True)
+    for cells in speed_rows:
+        print(row(cells), flush=True)
 
     truth = [clip.frames()]
     score_rows = []
@@ -111,38 +111,25 @@ def main() -> None:
         out = [[tracker.step(t) for t in tracklets]]
         metrics, strict, h = evaluate_tracking(truth, out), evaluate_tracking(truth, out, min_iou=0.5), hota(truth, out)
         b = metrics.best
-        score_rows.append(
-            f"| {name} | {metrics.samota:.4f} | {metrics.amota:.4f} | {metrics.amotp:.4f} | {b.mota:.4f} | "
-            f"{b.motp:.4f} | {b.ids} | {b.frag} | {strict.samota:.4f} | {strict.best.ids} | {h.hota:.4f} |"
-        )
-        print(score_rows[-1], flush=True)
+        score_rows.append([name, f"{metrics.samota:.4f}", f"{metrics.amota:.4f}", f"{metrics.amotp:.4f}", f"{b.mota:.4f}",
+                           f"{b.motp:.4f}", b.ids, b.frag, f"{strict.samota:.4f}", strict.best.ids, f"{h.hota:.4f}"])
+        print(row(score_rows[-1]), flush=True)
 
-    load = os.getloadavg()[0]
-    text = [
-        "# Tracking benchmark",
-        "",
+    write_results(
+        "tracking",
+        "Tracking benchmark",
         f"Written by `benchmarks/bench_tracking.py`: one synthetic clip, 22 players, {args.frames} frames "
-        f"(seed {args.seed}); frames per second of process CPU time, median of {args.rounds} rounds, the three runs alternating. Python "
-        f"{platform.python_version()}, numpy {np.__version__}, {platform.machine()} with {os.cpu_count()} CPUs at "
-        f"load {load:.1f}, BLAS threads 1 (a shared machine: compare the ratios, not the absolute rates).",
-        "",
+        f"(seed {args.seed}); frames per second of process CPU time, median of {args.rounds} rounds, the three runs "
+        "alternating; BLAS threads 1. " + machine(numpy=np.__version__),
         "Baseline: the bare per-frame cost of an unpruned association (two 22 x 22 `diou_3d` matrices "
         "and one `linear_sum_assignment`), with no track keeping.",
-        "",
-        "| run | frames/s | ratio to baseline |",
-        "| --- | ---: | ---: |",
-        *speed_rows,
-        "",
+        markdown_table(["run", "frames/s", "ratio to baseline"], speed_rows),
         "Scores on the same clip (AB3DMOT's definitions, 3D IoU >= 0.25; the last three columns at 0.5 "
         "and HOTA): the paper's Table 2 ablation.",
-        "",
-        "| tracker | sAMOTA | AMOTA | AMOTP | MOTA | MOTP | IDS | FRAG | sAMOTA@0.5 | IDS@0.5 | HOTA |",
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
-        *score_rows,
-    ]
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text("\n".join(text) + "\n")
-    print(f"wrote {args.out}")
+        markdown_table(["tracker", "sAMOTA", "AMOTA", "AMOTP", "MOTA", "MOTP", "IDS", "FRAG", "sAMOTA@0.5", "IDS@0.5", "HOTA"],
+                       score_rows),
+        out=args.out,
+    )
 
 
 if __name__ == "__main__":
