@@ -22,7 +22,7 @@ def register(subparsers) -> None:
         "intensity, the painted lines, each box with its track id and a heading arrow, grey when no "
         "point hit it; the sensors and their heads' boresights) above a side view (looking along +y, "
         "height stretched x4). Writes OUT/<clip>/frame_NNNNNN.png per frame and OUT/<clip>.mp4 "
-        "(mp4v, at the clip's frame rate). --export-frame writes frames' points as "
+        "(H.264, plays in browsers, at the clip's frame rate). --export-frame writes frames' points as "
         "OUT/<clip>/frame_NNNNNN.pcd or .ply (x, y, z in the pitch frame, metres, and intensity) "
         "for CloudCompare or Open3D's viewer.",
     )
@@ -81,7 +81,7 @@ def run(args) -> int:
         last = f" ... frame_{frames.stop - 1:06d}.png" if len(frames) > 1 else ""
         print(f"{out / clip}/: {plural(view.frames, 'PNG')} frame_{frames.start:06d}.png{last} "
               f"({view.size_px[0]} x {view.size_px[1]} px)")
-        print(f"{view.video}: {plural(view.frames, 'frame')} at {dataset.manifest.sensors[0]['frame_rate_hz']:g} fps (mp4v)")
+        print(f"{view.video}: {plural(view.frames, 'frame')} at {dataset.manifest.sensors[0]['frame_rate_hz']:g} fps (H.264)")
     for index in exports:
         path = out / clip / f"frame_{index:06d}.{args.export_format}"
         path.parent.mkdir(parents=True, exist_ok=True)
