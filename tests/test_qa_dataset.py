@@ -9,6 +9,7 @@ import pytest
 from conftest import ROOT, run_simgen
 
 import simgen.datasets as datasets
+from simgen.qa.report import data_uri
 
 pytestmark = pytest.mark.engine
 FRAMES = 6
@@ -31,7 +32,7 @@ def test_qa_of_a_dataset_passes_with_its_plots(smoke_dataset, tmp_path):
     assert lines[-1].startswith("PASS: 22 passed, 0 failed")
     html = (tmp_path / "index.html").read_text()
     for image in ("humanoids.png", "frames.png", "pattern_mid100-risley.png", "coverage_mid100-risley.png"):
-        assert f'src="plots/{image}"' in html and (tmp_path / "plots" / image).stat().st_size > 10_000
+        assert f'src="{data_uri(tmp_path / "plots" / image)}"' in html and (tmp_path / "plots" / image).stat().st_size > 10_000
 
 
 def test_view_writes_pngs_and_an_mp4_that_reads_back(smoke_dataset, tmp_path):
