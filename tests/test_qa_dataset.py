@@ -70,7 +70,7 @@ def test_verify_names_a_shard_with_a_flipped_byte(smoke_dataset, tmp_path):
         if path.is_file():
             (copy / path.relative_to(smoke_dataset)).parent.mkdir(parents=True, exist_ok=True)
             (copy / path.relative_to(smoke_dataset)).write_bytes(path.read_bytes())
-    shard = copy / "points" / "clip=clip_0000" / "part-0.parquet"
+    shard = copy / "points" / "clip_0000" / "part-0.parquet"
     data = bytearray(shard.read_bytes())
     data[len(data) // 3] ^= 0x10
     shard.write_bytes(bytes(data))

@@ -30,10 +30,11 @@ def _schema_rows(schema: pa.Schema) -> list[list]:
 
 def _parquet_layout() -> list[str]:
     lines = [
-        "Apache Parquet, zstd, laid out like Waymo Open Dataset v2: one table per component, hive-partitioned by",
-        "clip (`<table>/clip=<clip id>/part-0.parquet`, so every reader below sees a `clip` column). `points` has one",
-        "row group per frame; `frames` and `boxes` row groups hold whole frames. Units and frames are also in each",
-        "field's metadata (`doc`, `unit`).",
+        "Apache Parquet, zstd, laid out like Waymo Open Dataset v2: one table per component, a file per clip",
+        "(`<table>/<clip id>/part-0.parquet`) whose rows carry their keys `clip` and `frame` inside the file (so a",
+        "file copied out of its folder still says what it holds), and `sensors/part-0.parquet` once per dataset.",
+        "`points` has one row group per frame; `frames` and `boxes` row groups hold whole frames. Units and frames",
+        "are also in each field's metadata (`doc`, `unit`).",
     ]
     for name, schema in TABLES.items():
         lines += ["", f"### `{name}`", "", *_table(["column", "type", "unit", "meaning"], _schema_rows(schema))]
@@ -106,9 +107,9 @@ def _loading(manifest: Manifest) -> list[str]:
             "As is, with the usual tools:",
             "",
             "```python",
-            "import pandas as pd; points = pd.read_parquet('points')            # clip becomes a column",
-            "import polars as pl; boxes = pl.read_parquet('boxes/**/*.parquet', hive_partitioning=True)",
-            "import pyarrow.dataset as ds; frames = ds.dataset('frames', partitioning='hive').to_table()",
+            "import pandas as pd; points = pd.read_parquet('points')            # clip and frame are columns",
+            "import polars as pl; boxes = pl.read_parquet('boxes/**/*.parquet')",
+            "import pyarrow.dataset as ds; frames = ds.dataset('frames').to_table()",
             "```",
             "",
             "```sh",

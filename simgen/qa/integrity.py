@@ -15,7 +15,7 @@ from simgen.datasets import kitti, openpcdet
 from simgen.datasets.manifest import MANIFEST_NAME, ClipEntry, read_manifest
 from simgen.datasets.parquet import open_table, table_path
 from simgen.datasets.reader import Dataset
-from simgen.datasets.schema import SCHEMA_VERSION, TABLES
+from simgen.datasets.schema import CLIP_TABLES, SCHEMA_VERSION, TABLES
 from simgen.errors import UserError
 from simgen.qa.checks import Problem
 from simgen.qa.label_checks import Locate, box_problems, count_problems, track_problems
@@ -72,7 +72,7 @@ def file_problems(dataset: Dataset) -> list[Problem]:
 def clip_files(format: str, entry: ClipEntry) -> set[str]:
     """Relative paths of every file a clip's frames are read from."""
     if format == "parquet":
-        return {table_path(name, entry.clip) for name in TABLES}
+        return {table_path(name, entry.clip) for name in CLIP_TABLES}
     frames = range(entry.frames)
     if format == "openpcdet":
         return {f(entry.clip_index, i) for i in frames for f in (openpcdet.points_path, openpcdet.labels_path)}
