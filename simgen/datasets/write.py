@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 from simgen import __version__
 from simgen.datasets.card import dataset_card
-from simgen.datasets.kitti import write_kitti_clip
+from simgen.datasets.kitti import write_kitti_clip, write_placeholder_images
 from simgen.datasets.manifest import FORMATS, MANIFEST_NAME, ClipEntry, Manifest, dependency_versions, manifest_bytes
 from simgen.datasets.openpcdet import write_openpcdet_clip
 from simgen.datasets.parquet import write_parquet_clip, write_parquet_sensors
@@ -92,7 +92,10 @@ def _image_sets(root: Path, clips: Sequence[ClipRecord]) -> list[FileRecord]:
 def finish_dataset(
     root: Path, format: str, clips: Sequence[ClipRecord], sensors: Sequence[SensorInfo], scenario: Mapping, seed: int
 ) -> Manifest:
-    """Write the ImageSets (KITTI, OpenPCDet) or the sensors table (Parquet), manifest.json and README.md."""
+    """Write the ImageSets (KITTI, OpenPCDet) or the sensors table (Parquet), manifest.json and README.md.
+
+    KITTI with `scenario["dataset"]["kitti_images"]` also gets placeholder training/image_2 PNGs.
+    """
     root = Path(root)
     clips = sorted(clips, key=lambda c: c.clip_index)
     if not clips:
@@ -108,6 +111,8 @@ def finish_dataset(
         files += _image_sets(root, clips)
     if format == "parquet":
         files.append(write_parquet_sensors(root, sensors))
+    if format == "kitti" and scenario.get("dataset", {}).get("kitti_images"):
+        files += write_placeholder_images(root, [(c.clip_index, c.frames) for c in clips])
     val = val_clips([c.clip_index for c in clips])
     manifest = Manifest(
         format=format,
