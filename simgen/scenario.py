@@ -84,7 +84,7 @@ class DatasetConfig(_Strict):
     """What `simgen generate` writes."""
 
     clips: int = Field(1, ge=1, le=100_000, description="Clips: motion sequences of one seed each.")
-    format: Literal["parquet", "kitti", "kitti_tracking", "openpcdet"] = Field("parquet", description="Dataset layout.")
+    format: Literal["parquet", "kitti", "kitti_tracking", "openpcdet", "mcap"] = Field("parquet", description="Dataset layout.")
     kitti_images: bool = Field(
         False, description="kitti: also write placeholder training/image_2 PNGs (the virtual camera's size, blank), "
         "which OpenPCDet's KITTI info generation opens."

@@ -1,4 +1,4 @@
-"""`simgen generate`: a scenario -> a labelled dataset (Parquet, KITTI, KITTI tracking or OpenPCDet)."""
+"""`simgen generate`: a scenario -> a labelled dataset (Parquet, KITTI, KITTI tracking, OpenPCDet or a ROS 2 MCAP bag per clip)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from simgen.commands.arguments import add_command, add_scenario_arguments
 from simgen.errors import UserError
 from simgen.scenario import load_scenario, parse_scenario
 
-FORMAT_CHOICES = ("parquet", "kitti", "kitti_tracking", "openpcdet")
+FORMAT_CHOICES = ("parquet", "kitti", "kitti_tracking", "openpcdet", "mcap")
 
 
 def register(subparsers) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from simgen.commands.arguments import add_command, add_dataset_argument
+from simgen.commands.arguments import add_command, add_dataset_argument, frame_range
 from simgen.errors import UserError
 
 DEFAULT_PX_PER_M = 10.0
@@ -38,23 +38,6 @@ def register(subparsers) -> None:
     parser.add_argument("--export-format", choices=EXPORT_FORMATS, default="pcd", help="format of --export-frame (default pcd)")
     parser.add_argument("--no-images", action="store_true", help="write no PNG or MP4 (with --export-frame: only the exports)")
     parser.set_defaults(func=run)
-
-
-def frame_range(text: str, frames: int) -> range:
-    """Frames of `A:B` (either may be left out) or `A`, within 0..frames-1; bad ones are a `UserError`."""
-    try:
-        if ":" in text:
-            start_text, stop_text = text.split(":", 1)
-            start = int(start_text) if start_text.strip() else 0
-            stop = int(stop_text) if stop_text.strip() else frames
-        else:
-            start = int(text)
-            stop = start + 1
-    except ValueError:
-        raise UserError(f"--frames: expected A:B or A (whole numbers), got {text!r}") from None
-    if not 0 <= start < stop <= frames:
-        raise UserError(f"--frames {text}: the clip has frames 0-{frames - 1}")
-    return range(start, stop)
 
 
 def run(args) -> int:

@@ -7,7 +7,7 @@ import json
 import pyarrow as pa
 
 from simgen.datasets import kitti_camera as camera
-from simgen.datasets import openpcdet_config
+from simgen.datasets import openpcdet_config, ros2_bag
 from simgen.datasets.manifest import MANIFEST_NAME, Manifest
 from simgen.datasets.samples import INTENSITY_SCALE, MAX_FRAMES_PER_CLIP, VAL_FRACTION
 from simgen.datasets.schema import BOX_CONVENTION, PITCH_FRAME, TABLES
@@ -137,6 +137,7 @@ def dataset_card(manifest: Manifest) -> str:
         "kitti": lambda: _kitti_layout(False, bool(scenario.get("dataset", {}).get("kitti_images"))),
         "kitti_tracking": lambda: _kitti_layout(True),
         "openpcdet": _openpcdet_layout,
+        "mcap": ros2_bag.card_lines,
     }[manifest.format]()
     sensor_keys = list(manifest.sensors[0]) if manifest.sensors else []
     lines = [

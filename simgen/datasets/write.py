@@ -19,6 +19,7 @@ from simgen.datasets.kitti import write_kitti_clip, write_placeholder_images
 from simgen.datasets.manifest import FORMATS, MANIFEST_NAME, ClipEntry, Manifest, dependency_versions, manifest_bytes
 from simgen.datasets.openpcdet import write_openpcdet_clip
 from simgen.datasets.parquet import write_parquet_clip, write_parquet_sensors
+from simgen.datasets.ros2_bag import write_mcap_clip
 from simgen.datasets.records import ClipRecord, FileRecord, write_bytes, write_text
 from simgen.datasets.samples import sample_name, val_clips
 from simgen.datasets.schema import SCHEMA_VERSION
@@ -65,6 +66,8 @@ def write_clip(
         files = write_parquet_clip(root, frames)
     elif format == "openpcdet":
         files = write_openpcdet_clip(root, frames, clip_index)
+    elif format == "mcap":
+        files = write_mcap_clip(root, frames, sensors)
     else:
         files = write_kitti_clip(root, frames, clip_index, tracking=format == "kitti_tracking")
     return ClipRecord(
