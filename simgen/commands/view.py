@@ -1,4 +1,5 @@
-"""`simgen view`: bird's-eye and side views of a clip's frames as PNGs and an MP4; frames as PCD or PLY."""
+"""`simgen view`: bird's-eye and side views of a clip's frames as PNGs and an MP4; frames as PCD or PLY;
+the clip as a Rerun recording."""
 
 from __future__ import annotations
 
@@ -27,7 +28,10 @@ def register(subparsers) -> None:
         "for CloudCompare or Open3D's viewer.",
     )
     add_dataset_argument(parser)
-    parser.add_argument("-o", "--output", type=Path, required=True, metavar="OUT", help="output directory (created)")
+    parser.add_argument("-o", "--output", type=Path, metavar="OUT", help="output directory (created) for PNGs, MP4 and exports")
+    parser.add_argument("--rerun", type=Path, metavar="FILE.rrd",
+                        help="also (or, without -o, only) write the frames as a Rerun recording: points, boxes with track "
+                        "ids and headings, sensor frusta, on a game-time timeline; open it with `rerun FILE.rrd`")
     parser.add_argument("--clip", help="clip id (default: the first clip)")
     parser.add_argument("--frames", default=":", metavar="A:B", help="frames A to B-1 (Python slice; default all), or one frame A")
     parser.add_argument("--colour", choices=COLOURINGS, default="height", help="colour points by height or intensity (default height)")
@@ -48,6 +52,12 @@ def run(args) -> int:
 
     if not 1.0 <= args.scale <= 100.0:
         raise UserError(f"--scale must be in 1-100 pixels per metre, got {args.scale:g}")
+    if args.output is None and args.rerun is None:
+        raise UserError("nothing to write: give -o OUT (pictures, exports) or --rerun FILE.rrd")
+    if args.output is None and (args.export_frame or args.no_images):
+        raise UserError("--export-frame and --no-images need -o OUT")
+    if args.rerun is not None and (args.rerun.suffix != ".rrd" or args.rerun.is_dir()):
+        raise UserError(f"--rerun {args.rerun}: expected a file name ending in .rrd")
     if args.no_images and not args.export_frame:
         raise UserError("--no-images leaves nothing to write: add --export-frame I")
     started = time.perf_counter()
@@ -56,8 +66,16 @@ def run(args) -> int:
     frames = frame_range(args.frames, dataset.num_frames(clip))
     exports = [frame_range(str(i), dataset.num_frames(clip))[0] for i in args.export_frame]
     out = args.output
-    if out.exists() and not out.is_dir():
+    if out is not None and out.exists() and not out.is_dir():
         raise UserError(f"{out}: exists and is not a directory")
+    if args.rerun is not None:
+        from simgen.view.rerun_view import write_recording
+
+        written = write_recording(dataset, clip, frames, args.rerun, args.colour)
+        print(f"{args.rerun}: {plural(written, 'frame')} of {clip} (Rerun; open with `rerun {args.rerun}`)")
+    if out is None:
+        print(f"done in {time.perf_counter() - started:.1f} s")
+        return 0
     out.mkdir(parents=True, exist_ok=True)
     if not args.no_images:
         view = write_clip_view(dataset, clip, frames, out, args.colour, args.scale)
