@@ -19,7 +19,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -59,6 +58,8 @@ def image_path(clip_index: int, index: int) -> str:
 @functools.cache
 def placeholder_png() -> bytes:
     """A blank 1-bit PNG of the virtual camera's nominal size (a few kB; decoded, one byte per pixel)."""
+    import cv2  # only for --kitti-images; readers of simgen.datasets need no OpenCV
+
     ok, data = cv2.imencode(".png", np.zeros(IMAGE_SIZE_PX[::-1], np.uint8), [cv2.IMWRITE_PNG_BILEVEL, 1])
     if not ok:
         raise UserError("OpenCV could not encode the placeholder image")

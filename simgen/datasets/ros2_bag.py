@@ -22,12 +22,16 @@ a time and writes each as it comes.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+import functools
+import io
+from collections.abc import Iterable, Sequence
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
 import numpy as np
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
 from mcap_ros2.writer import Writer
 from numpy.typing import NDArray
 from rosbags.typesys import Stores, get_typestore
@@ -35,8 +39,8 @@ from rosbags.typesys import Stores, get_typestore
 from simgen.atomic import atomic_path
 from simgen.datasets.frame import Frame, class_names
 from simgen.datasets.records import FileRecord, record_file
-from simgen.scan.sensor_rig import sensor_rotation
-from simgen.scenario import SensorPose
+from simgen.datasets.verify import DatasetFiles
+from simgen.errors import UserError
 from simgen.vocab import OFFICIAL_CLASS
 
 if TYPE_CHECKING:
@@ -93,7 +97,10 @@ def _quaternion_xyzw(yaw_rad: float) -> dict:
 
 def sensor_quaternion(pose: Sequence[float]) -> NDArray[np.float64]:
     """(4,) x, y, z, w of a sensor pose (x, y, z metres, roll, pitch, yaw degrees): sensor frame -> pitch frame."""
-    from scipy.spatial.transform import Rotation
+    from scipy.spatial.transform import Rotation  # scipy.spatial and the scan stage are slow to import; only bags need them
+
+    from simgen.scan.sensor_rig import sensor_rotation
+    from simgen.scenario import SensorPose
 
     x, y, z, roll, pitch, yaw = pose
     return Rotation.from_matrix(sensor_rotation(SensorPose(x=x, y=y, z=z, roll=roll, pitch=pitch, yaw=yaw))).as_quat()
@@ -218,7 +225,7 @@ class BagSummary:
     frames: int
 
 
-def write_bag(path: Path, frames, sensors: Sequence[dict], per_sensor: bool = True) -> BagSummary:
+def write_bag(path: Path, frames: Iterable[Frame], sensors: Sequence[dict], per_sensor: bool = True) -> BagSummary:
     """Write `frames` (an iterable of `Frame`, consumed one at a time) to `path` atomically."""
     count = 0
     with atomic_path(path) as tmp, tmp.open("wb") as stream:
@@ -236,8 +243,6 @@ def bag_path(clip: str) -> str:
 
 def write_mcap_clip(root: Path, frames: Sequence[LabelledFrame], sensors: Sequence[SensorInfo]) -> list[FileRecord]:
     """`<clip>.mcap`; rows = messages."""
-    from dataclasses import asdict
-
     relative = bag_path(frames[0].clip)
     root.mkdir(parents=True, exist_ok=True)
     summary = write_bag(root / relative, (labelled_to_frame(f) for f in frames), [asdict(s) for s in sensors])
@@ -246,9 +251,6 @@ def write_mcap_clip(root: Path, frames: Sequence[LabelledFrame], sensors: Sequen
 
 def read_bag(stream: BinaryIO) -> dict[str, list]:
     """Decoded messages of a bag by topic, in log-time order."""
-    from mcap.reader import make_reader
-    from mcap_ros2.decoder import DecoderFactory
-
     topics: dict[str, list] = {}
     for _, channel, _, message in make_reader(stream, decoder_factories=[DecoderFactory()]).iter_decoded_messages(log_time_order=True):
         topics.setdefault(channel.topic, []).append(message)
@@ -276,18 +278,12 @@ def boxes_of(message) -> tuple[NDArray[np.float32], NDArray[np.str_], NDArray[np
 class BagReader:
     """Frames of an `mcap` dataset (points grouped by sensor, in sensor order)."""
 
-    def __init__(self, files, sensors: Sequence[dict]):
-        import functools
-
+    def __init__(self, files: DatasetFiles, sensors: Sequence[dict]):
         self.files = files
         self.sensors = sorted(sensors, key=lambda s: s["sensor_id"])
         self._clip = functools.lru_cache(maxsize=2)(self._load)
 
     def _load(self, clip: str) -> dict[str, list]:
-        import io
-
-        from simgen.errors import UserError
-
         relative = bag_path(clip)
         data = self.files.read(relative)
         try:
