@@ -25,7 +25,9 @@ def register(subparsers) -> None:
         "height stretched x4). Writes OUT/<clip>/frame_NNNNNN.png per frame and OUT/<clip>.mp4 "
         "(H.264, plays in browsers, at the clip's frame rate). --export-frame writes frames' points as "
         "OUT/<clip>/frame_NNNNNN.pcd or .ply (x, y, z in the pitch frame, metres, and intensity) "
-        "for CloudCompare or Open3D's viewer.",
+        "for CloudCompare or Open3D's viewer. --rerun FILE.rrd writes the same frames as a Rerun "
+        "recording (3D points coloured as above, boxes with track ids and headings, each head's field of "
+        "view, on a game-time timeline), with or without -o.",
     )
     add_dataset_argument(parser)
     parser.add_argument("-o", "--output", type=Path, metavar="OUT", help="output directory (created) for PNGs, MP4 and exports")
