@@ -14,7 +14,7 @@ import sys
 from simgen import __version__
 from simgen.errors import UserError
 
-COMMANDS = ("capture", "generate", "validate", "pattern", "qa", "view", "verify")
+COMMANDS = ("capture", "generate", "validate", "pattern", "qa", "view", "verify", "export")
 
 
 class _Parser(argparse.ArgumentParser):

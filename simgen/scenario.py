@@ -84,7 +84,17 @@ class DatasetConfig(_Strict):
     """What `simgen generate` writes."""
 
     clips: int = Field(1, ge=1, le=100_000, description="Clips: motion sequences of one seed each.")
-    format: Literal["parquet", "kitti", "kitti_tracking", "openpcdet"] = Field("parquet", description="Dataset layout.")
+    format: Literal["parquet", "kitti", "kitti_tracking", "openpcdet", "mcap"] = Field("parquet", description="Dataset layout.")
+    kitti_images: bool = Field(
+        False, description="kitti: also write placeholder training/image_2 PNGs (the virtual camera's size, blank), "
+        "which OpenPCDet's KITTI info generation opens."
+    )
+
+    @model_validator(mode="after")
+    def _images_for_kitti(self) -> "DatasetConfig":
+        if self.kitti_images and self.format != "kitti":
+            raise ValueError(f"dataset.kitti_images: placeholder images are for format kitti, not {self.format}")
+        return self
 
 
 class NoiseConfig(_Strict):

@@ -13,20 +13,22 @@ import simgen.datasets
 import simgen.datasets.parquet
 from simgen.datasets import FORMATS, write_clip
 from simgen.datasets.manifest import MANIFEST_NAME
+from simgen.datasets.schema import SCHEMA_VERSION
 from simgen.errors import UserError
 from simgen.labels.labelled_frame import LabelledFrame
 
 CLIPS = sample_clips()[:2]
 # A file of each kind, per format, and the frame that reads it.
 CORRUPTIBLE = [
-    ("parquet", "points/clip=clip_0001/part-0.parquet"),
-    ("parquet", "boxes/clip=clip_0001/part-0.parquet"),
+    ("parquet", "points/clip_0001/part-0.parquet"),
+    ("parquet", "boxes/clip_0001/part-0.parquet"),
     ("kitti", "training/velodyne/010002.bin"),
     ("kitti", "training/label_2/010002.txt"),
     ("kitti_tracking", "training/velodyne/0001/000002.bin"),
     ("kitti_tracking", "training/label_02/0001.txt"),
     ("openpcdet", "points/010002.npy"),
     ("openpcdet", "labels/010002.txt"),
+    ("mcap", "clip_0001.mcap"),
 ]
 
 
@@ -78,8 +80,8 @@ def test_manifest_missing_malformed_or_foreign(tmp_path):
     (tmp_path / MANIFEST_NAME).write_text("{")
     with pytest.raises(UserError, match="manifest.json: not a readable manifest"):
         simgen.datasets.open(tmp_path)
-    (tmp_path / MANIFEST_NAME).write_text(json.dumps({"schema_version": 2, "format": "parquet"}))
-    with pytest.raises(UserError, match="dataset schema version 2, this simgen reads 1"):
+    (tmp_path / MANIFEST_NAME).write_text(json.dumps({"schema_version": SCHEMA_VERSION + 1, "format": "parquet"}))
+    with pytest.raises(UserError, match=f"dataset schema version {SCHEMA_VERSION + 1}, this simgen reads {SCHEMA_VERSION}"):
         simgen.datasets.open(tmp_path)
     with pytest.raises(UserError, match="no such dataset directory"):
         simgen.datasets.open(tmp_path / "nowhere")
@@ -93,7 +95,7 @@ def test_a_failed_write_leaves_no_file_under_its_final_name(tmp_path, monkeypatc
     with pytest.raises(RuntimeError, match="disk full"):
         write_clip(tmp_path, "parquet", CLIPS[0], sensors(), 0)
     written = [str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*") if p.is_file()]
-    assert written == ["frames/clip=clip_0000/part-0.parquet"]  # written before the failure; no points file, no temporary
+    assert written == ["frames/clip_0000/part-0.parquet"]  # written before the failure; no points file, no temporary
 
 
 def test_bad_clips_are_one_line_errors(tmp_path):
@@ -125,7 +127,7 @@ def test_clips_of_one_dataset_must_not_collide(tmp_path):
 
 def test_parquet_page_checksums_guard_even_unverified_reads(tmp_path):
     write_dataset(tmp_path, "parquet", CLIPS)
-    path = tmp_path / "points/clip=clip_0001/part-0.parquet"
+    path = tmp_path / "points/clip_0001/part-0.parquet"
     data = bytearray(path.read_bytes())
     data[len(data) // 3] ^= 0x01
     path.write_bytes(bytes(data))

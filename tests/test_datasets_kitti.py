@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from dataset_factory import make_clip
+from dataset_factory import make_clip, sensors
 
 from simgen.datasets import kitti_camera as camera
 from simgen.datasets.kitti import UNKNOWN_OCCLUSION, label_lines, parse_labels
@@ -71,3 +71,61 @@ def test_label_lines_have_kitti_fields_and_mark_boxes_without_points():
     assert (frame.labels.num_points == 0).any()
     parsed = parse_labels("\n".join(lines), "label.txt", tracking=False)
     np.testing.assert_array_equal(parsed["boxes"][:, :6], frame.labels.boxes[:, :6])
+
+
+def test_placeholder_images_have_the_virtual_cameras_size_and_are_listed(tmp_path):
+    from PIL import Image
+
+    from simgen.datasets import finish_dataset, open_dataset, write_clip
+    from simgen.qa.integrity import verify_dataset
+    from simgen.qa.tolerances import load_tolerances
+
+    clips = [make_clip("clip_0000", 2, seed=0), make_clip("clip_0001", 3, seed=1)]
+    records = [write_clip(tmp_path, "kitti", frames, sensors(), i) for i, frames in enumerate(clips)]
+    manifest = finish_dataset(tmp_path, "kitti", records, sensors(), {"name": "f", "dataset": {"kitti_images": True}}, 0)
+    images = sorted((tmp_path / "training" / "image_2").glob("*.png"))
+    velodyne = sorted((tmp_path / "training" / "velodyne").glob("*.bin"))
+    assert [p.stem for p in images] == [p.stem for p in velodyne] == ["000000", "000001", "010000", "010001", "010002"]
+    for path in images:
+        with Image.open(path) as image:
+            assert image.size == camera.IMAGE_SIZE_PX  # what OpenPCDet's get_image_shape reads (as rows, columns)
+    assert {f"training/image_2/{p.name}" for p in images} <= {f.path for f in manifest.files}
+    assert "`training/image_2/NNNNNN.png`: blank placeholders" in (tmp_path / "README.md").read_text()
+    assert verify_dataset(tmp_path, load_tolerances().labels).problems == ()
+    assert len(open_dataset(tmp_path)) == 5
+
+
+def test_placeholder_images_are_for_kitti_only():
+    from simgen.errors import UserError
+    from simgen.scenario import parse_scenario
+
+    assert parse_scenario({"name": "x", "dataset": {"format": "kitti", "kitti_images": True}}).dataset.kitti_images
+    with pytest.raises(UserError, match="placeholder images are for format kitti, not openpcdet"):
+        parse_scenario({"name": "x", "dataset": {"format": "openpcdet", "kitti_images": True}})
+
+
+def test_the_openpcdet_card_gives_a_class_map_and_a_dataset_yaml_that_fit_the_data(tmp_path):
+    import re
+
+    import yaml
+    from dataset_factory import write_dataset
+
+    from simgen.datasets import openpcdet_config
+
+    write_dataset(tmp_path, "openpcdet", [make_clip("clip_0000", 3)])
+    card = (tmp_path / "README.md").read_text()
+    config = yaml.safe_load(re.search(r"```yaml\n(.*?)```", card, re.S).group(1))
+    assert config == openpcdet_config.custom_dataset_config()
+    names = {line.split()[-1] for path in (tmp_path / "labels").glob("*.txt") for line in path.read_text().splitlines()}
+    assert names == {"Pedestrian", "Official"} and names <= set(config["MAP_CLASS_TO_KITTI"])  # no KeyError in evaluation
+    kitti_names = {"Car", "Van", "Truck", "Pedestrian", "Person_sitting", "Cyclist", "Tram", "Misc", "DontCare"}
+    for officials in openpcdet_config.OFFICIAL_AS:
+        mapping = openpcdet_config.class_map(officials)
+        assert set(mapping.values()) <= kitti_names and set(openpcdet_config.class_names(officials)) <= set(mapping)
+        assert f"`MAP_CLASS_TO_KITTI: {mapping}`" in card
+    low, high = np.array(config["POINT_CLOUD_RANGE"][:3]), np.array(config["POINT_CLOUD_RANGE"][3:])
+    assert np.all(low[:2] < -np.array([52.5, 34.0])) and np.all(high[:2] > [52.5, 34.0])  # the whole pitch
+    voxel = np.array(config["DATA_PROCESSOR"][-1]["VOXEL_SIZE"])
+    grid = (high - low) / voxel
+    np.testing.assert_allclose(grid, np.round(grid), atol=1e-6)
+    assert np.all(np.round(grid[:2]) % 16 == 0) and round(grid[2]) == 1  # PointPillars: one pillar, strides divide

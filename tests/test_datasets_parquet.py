@@ -14,12 +14,12 @@ import polars as pl
 import pyarrow.dataset as ds
 import pyarrow.parquet as pq
 import pytest
-from dataset_factory import sample_clips, write_dataset
+from dataset_factory import sample_clips, sensors, write_dataset
 
 import simgen.datasets
 from simgen.datasets.manifest import MANIFEST_NAME
 from simgen.datasets.records import sha256_file
-from simgen.datasets.schema import METADATA_KEY, TABLES
+from simgen.datasets.schema import CLIP_TABLES, METADATA_KEY, SCHEMA_VERSION, TABLES
 from simgen.errors import UserError
 
 CLIPS = sample_clips()
@@ -50,17 +50,37 @@ def test_the_duckdb_command_line_counts_the_points(root):
 
 def test_pandas_polars_and_pyarrow_read_every_table(root):
     assert len(pd.read_parquet(root / "points")) == POINTS
-    assert pl.scan_parquet(f"{root}/points/**/*.parquet", hive_partitioning=True).select(pl.len()).collect().item() == POINTS
-    points = ds.dataset(root / "points", partitioning="hive").to_table()
+    assert pl.scan_parquet(f"{root}/points/**/*.parquet").select(pl.len()).collect().item() == POINTS
+    points = ds.dataset(root / "points").to_table()
     assert points.num_rows == POINTS and "clip" in points.column_names
     assert len(pd.read_parquet(root / "boxes")) == BOXES
-    assert pl.read_parquet(f"{root}/frames/**/*.parquet", hive_partitioning=True).height == sum(map(len, CLIPS))
-    assert ds.dataset(root / "sensors", partitioning="hive").to_table().num_rows == len(CLIPS)
+    assert pl.read_parquet(f"{root}/frames/**/*.parquet").height == sum(map(len, CLIPS))
+    assert ds.dataset(root / "sensors").to_table().num_rows == len(sensors())  # once per dataset, not per clip
+    assert [p.relative_to(root).as_posix() for p in (root / "sensors").rglob("*.parquet")] == ["sensors/part-0.parquet"]
+
+
+def test_every_file_carries_its_clip_and_frame(root, tmp_path):
+    """A file copied out of its folder still says which clip and frames it holds (Waymo v2's key columns)."""
+    for frames in CLIPS:
+        clip = frames[0].clip
+        for table in CLIP_TABLES:
+            alone = tmp_path / f"{table}_{clip}.parquet"
+            alone.write_bytes((root / table / clip / "part-0.parquet").read_bytes())
+            keys = pq.read_table(alone, columns=["clip", "frame"]).to_pandas()
+            assert set(keys["clip"]) <= {clip}
+            expected = {
+                "frames": [f.index for f in frames],
+                "points": [f.index for f in frames for _ in range(len(f.scan.points_m))],
+                "boxes": [f.index for f in frames for _ in range(len(f.labels.boxes))],
+            }[table]
+            assert keys["frame"].tolist() == expected and len(keys) == len(expected)
+    per_clip = duckdb.sql(f"select clip, count(distinct frame) from '{root}/frames/*/*.parquet' group by clip order by clip").fetchall()
+    assert per_clip == [(frames[0].clip, len(frames)) for frames in CLIPS]
 
 
 def test_points_have_a_row_group_per_frame_and_documented_fields(root):
     for frames in CLIPS:
-        parquet = pq.ParquetFile(root / f"points/clip={frames[0].clip}/part-0.parquet")
+        parquet = pq.ParquetFile(root / f"points/{frames[0].clip}/part-0.parquet")
         groups = [parquet.metadata.row_group(i).num_rows for i in range(parquet.metadata.num_row_groups)]
         assert groups == [len(f.scan.points_m) for f in frames]
         assert parquet.metadata.row_group(0).column(1).compression == "ZSTD"
@@ -74,7 +94,7 @@ def test_points_have_a_row_group_per_frame_and_documented_fields(root):
 
 def test_a_table_of_another_schema_version_is_rejected(tmp_path):
     write_dataset(tmp_path, "parquet", CLIPS[:1])
-    relative = "frames/clip=clip_0000/part-0.parquet"
+    relative = "frames/clip_0000/part-0.parquet"
     table = pq.read_table(tmp_path / relative, partitioning=None)
     metadata = json.loads(table.schema.metadata[METADATA_KEY])
     foreign = table.replace_schema_metadata({METADATA_KEY: json.dumps({**metadata, "schema_version": 99})})
@@ -84,5 +104,5 @@ def test_a_table_of_another_schema_version_is_rejected(tmp_path):
         if entry["path"] == relative:
             entry.update(bytes=(tmp_path / relative).stat().st_size, sha256=sha256_file(tmp_path / relative))
     (tmp_path / MANIFEST_NAME).write_text(json.dumps(manifest))
-    with pytest.raises(UserError, match=r"part-0.parquet: dataset schema version 99, this simgen reads 1$"):
+    with pytest.raises(UserError, match=rf"part-0.parquet: dataset schema version 99, this simgen reads {SCHEMA_VERSION}$"):
         simgen.datasets.open(tmp_path).frame("clip_0000", 0)

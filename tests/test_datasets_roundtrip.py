@@ -47,7 +47,7 @@ def test_every_frame_round_trips(datasets, format):
             np.testing.assert_array_equal(frame.intensity, source.scan.intensity)
             _assert_same_boxes(frame.boxes, source.labels.boxes)
             np.testing.assert_array_equal(frame.class_name, class_names(source.labels.team))
-            if format in ("parquet", "kitti_tracking"):
+            if format in ("parquet", "kitti_tracking", "mcap"):
                 np.testing.assert_array_equal(frame.track_id, source.labels.track_id)
             else:
                 assert frame.track_id is None

@@ -48,7 +48,7 @@ def test_duckdb_counts_the_points_the_summary_printed(parquet_dataset):
     assert not (out / ".simgen").exists()
 
 
-@pytest.mark.parametrize("fmt", ["kitti", "kitti_tracking", "openpcdet"])
+@pytest.mark.parametrize("fmt", ["kitti", "kitti_tracking", "openpcdet", "mcap"])
 def test_other_formats_round_trip_to_the_parquet_frames(parquet_dataset, tmp_path, fmt):
     reference = datasets.open(parquet_dataset[0])
     other = datasets.open(generate(tmp_path / fmt, "--format", fmt) and tmp_path / fmt)

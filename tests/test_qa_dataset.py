@@ -9,6 +9,7 @@ import pytest
 from conftest import ROOT, run_simgen
 
 import simgen.datasets as datasets
+from simgen.qa.report import data_uri
 
 pytestmark = pytest.mark.engine
 FRAMES = 6
@@ -31,7 +32,7 @@ def test_qa_of_a_dataset_passes_with_its_plots(smoke_dataset, tmp_path):
     assert lines[-1].startswith("PASS: 22 passed, 0 failed")
     html = (tmp_path / "index.html").read_text()
     for image in ("humanoids.png", "frames.png", "pattern_mid100-risley.png", "coverage_mid100-risley.png"):
-        assert f'src="plots/{image}"' in html and (tmp_path / "plots" / image).stat().st_size > 10_000
+        assert f'src="{data_uri(tmp_path / "plots" / image)}"' in html and (tmp_path / "plots" / image).stat().st_size > 10_000
 
 
 def test_view_writes_pngs_and_an_mp4_that_reads_back(smoke_dataset, tmp_path):
@@ -69,7 +70,7 @@ def test_verify_names_a_shard_with_a_flipped_byte(smoke_dataset, tmp_path):
         if path.is_file():
             (copy / path.relative_to(smoke_dataset)).parent.mkdir(parents=True, exist_ok=True)
             (copy / path.relative_to(smoke_dataset)).write_bytes(path.read_bytes())
-    shard = copy / "points" / "clip=clip_0000" / "part-0.parquet"
+    shard = copy / "points" / "clip_0000" / "part-0.parquet"
     data = bytearray(shard.read_bytes())
     data[len(data) // 3] ^= 0x10
     shard.write_bytes(bytes(data))

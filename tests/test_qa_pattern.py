@@ -4,21 +4,17 @@ from __future__ import annotations
 
 import re
 import subprocess
-from pathlib import Path
 
 import cv2
 import pytest
 import yaml
+from chromium import CHROMIUM, FLAGS, require_chromium
 from conftest import run_simgen
 
 from simgen.cli import main
 from scan_patterns import HeadSpec
 from simgen.qa.pattern import head_qa
 from simgen.qa.tolerances import DEFAULT_PATH, load_tolerances
-
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 
 
 @pytest.fixture(scope="module")
@@ -47,15 +43,20 @@ def test_the_papers_rose_fails_where_it_differs_from_the_sensor(tmp_path):
     assert "pass points per frame on a 0.5 x 1.8 m target" in verdicts and "pass shot rate" in verdicts
 
 
-def test_chromium_shows_the_report_with_every_image_loaded(risley, tmp_path):
-    assert CHROMIUM.exists(), "/usr/bin/chromium is missing (Debian package `chromium`; `make setup` installs it)"
+def test_chromium_shows_the_report_alone_with_every_image_loaded(risley, tmp_path):
+    require_chromium()
     out, _ = risley
-    url = (out / "index.html").as_uri()
+    alone = tmp_path / "attached"  # index.html on its own, as attached to a ticket
+    alone.mkdir()
+    (alone / "index.html").write_bytes((out / "index.html").read_bytes())
+    sources = re.findall(r'<img[^>]* src="([^"]*)"', (alone / "index.html").read_text())
     expected = len(list((out / "plots").glob("*.png")))
+    assert len(sources) == expected and all(src.startswith("data:image/png;base64,") for src in sources)
+    url = (alone / "index.html").as_uri()
 
     def chromium(*args: str) -> subprocess.CompletedProcess:
         profile = tmp_path / f"profile-{len(list(tmp_path.iterdir()))}"
-        return subprocess.run([str(CHROMIUM), *CHROMIUM_FLAGS, f"--user-data-dir={profile}", *args, url],
+        return subprocess.run([str(CHROMIUM), *FLAGS, f"--user-data-dir={profile}", *args, url],
                               capture_output=True, text=True, timeout=120)
 
     dom = chromium("--virtual-time-budget=10000", "--dump-dom").stdout

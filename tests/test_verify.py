@@ -12,6 +12,7 @@ from dataset_factory import sample_clips, write_dataset
 from simgen.cli import main
 from simgen.datasets import FORMATS
 from simgen.datasets.frame import Frame
+from simgen.datasets.schema import SCHEMA_VERSION
 from simgen.labels.boxes import FrameLabels
 from simgen.labels.labelled_frame import LabelledFrame
 from simgen.qa.label_checks import box_problems, count_problems, track_problems
@@ -79,14 +80,14 @@ def test_a_clean_dataset_verifies_and_a_flipped_byte_names_its_file(tmp_path, fm
 
 def test_schema_version_unlisted_files_and_bad_input(tmp_path):
     write_dataset(tmp_path, "parquet", [clean_clip()])
-    stray = tmp_path / "points" / "clip=clip_0000" / "part-1.parquet"
+    stray = tmp_path / "points" / "clip_0000" / "part-1.parquet"
     stray.write_bytes(b"not listed")
     code, lines, _ = verify(tmp_path)
     assert code == 1 and f"{stray}: not listed in manifest.json (readers that glob the folders would read it)" in lines
     manifest = tmp_path / "manifest.json"
-    manifest.write_text(manifest.read_text().replace('"schema_version": 1', '"schema_version": 99'))
+    manifest.write_text(manifest.read_text().replace(f'"schema_version": {SCHEMA_VERSION}', '"schema_version": 99'))
     code, lines, _ = verify(tmp_path)
-    assert code == 1 and lines[0] == f"{manifest}: schema version 99, this simgen reads 1"
+    assert code == 1 and lines[0] == f"{manifest}: schema version 99, this simgen reads {SCHEMA_VERSION}"
     code, lines, stderr = verify(tmp_path / "missing")
     assert code == 2 and stderr == f"simgen verify: error: {tmp_path / 'missing'}: no such dataset directory\n"
 

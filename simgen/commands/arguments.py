@@ -6,6 +6,8 @@ import argparse
 import textwrap
 from pathlib import Path
 
+from simgen.errors import UserError
+
 
 def add_command(subparsers, name: str, summary: str, description: str) -> argparse.ArgumentParser:
     """A sub-command's parser: `summary` in `simgen --help`, `description` wrapped at 88 columns in its own."""
@@ -25,3 +27,20 @@ def add_scenario_arguments(parser: argparse.ArgumentParser, output_help: str, fr
 def add_dataset_argument(parser: argparse.ArgumentParser, **kwargs) -> None:
     """DATASET, a directory that simgen wrote (the commands that read datasets)."""
     parser.add_argument("dataset", type=Path, metavar="DATASET", help="dataset directory (with manifest.json)", **kwargs)
+
+
+def frame_range(text: str, frames: int) -> range:
+    """Frames of `A:B` (either may be left out) or `A`, within 0..frames-1; bad ones are a `UserError`."""
+    try:
+        if ":" in text:
+            start_text, stop_text = text.split(":", 1)
+            start = int(start_text) if start_text.strip() else 0
+            stop = int(stop_text) if stop_text.strip() else frames
+        else:
+            start = int(text)
+            stop = start + 1
+    except ValueError:
+        raise UserError(f"--frames: expected A:B or A (whole numbers), got {text!r}") from None
+    if not 0 <= start < stop <= frames:
+        raise UserError(f"--frames {text}: the clip has frames 0-{frames - 1}")
+    return range(start, stop)

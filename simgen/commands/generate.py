@@ -1,4 +1,4 @@
-"""`simgen generate`: a scenario -> a labelled dataset (Parquet, KITTI, KITTI tracking or OpenPCDet)."""
+"""`simgen generate`: a scenario -> a labelled dataset (Parquet, KITTI, KITTI tracking, OpenPCDet or a ROS 2 MCAP bag per clip)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from simgen.commands.arguments import add_command, add_scenario_arguments
 from simgen.errors import UserError
 from simgen.scenario import load_scenario, parse_scenario
 
-FORMAT_CHOICES = ("parquet", "kitti", "kitti_tracking", "openpcdet")
+FORMAT_CHOICES = ("parquet", "kitti", "kitti_tracking", "openpcdet", "mcap")
 
 
 def register(subparsers) -> None:
@@ -25,6 +25,8 @@ def register(subparsers) -> None:
     )
     add_scenario_arguments(parser, "dataset directory to create, e.g. datasets/NAME", "frames per clip (default: the scenario's scan.frames)")
     parser.add_argument("--format", choices=FORMAT_CHOICES, help="dataset layout (default: the scenario's, else parquet)")
+    parser.add_argument("--kitti-images", action="store_true",
+                        help="kitti: also write blank placeholder training/image_2 PNGs, as OpenPCDet's KITTI info generation needs")
     parser.add_argument("--density", type=float, help="shots per second as a multiple of the real sensor's (x1, x2, ...)")
     parser.add_argument("--clips", type=int, help="number of clips (default: the scenario's dataset.clips)")
     parser.add_argument("--workers", type=int, default=1, help="local worker processes, one clip each at a time (default 1)")
@@ -40,6 +42,8 @@ def _resolve(args):
     data = scenario.model_dump()
     if args.format:
         data["dataset"]["format"] = args.format
+    if args.kitti_images:
+        data["dataset"]["kitti_images"] = True
     if args.clips is not None:
         data["dataset"]["clips"] = args.clips
     if args.density is not None:

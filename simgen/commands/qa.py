@@ -17,7 +17,7 @@ def register(subparsers) -> None:
         subparsers,
         "qa",
         "fidelity report of a scan pattern or a dataset, with pass / fail verdicts",
-        "Write a fidelity report to REPORT_DIR: index.html (opens without a server), report.md and "
+        "Write a fidelity report to REPORT_DIR: index.html (one self-contained file, plots embedded), report.md and "
         "plots/*.png. --pattern PRESET: each head's shot pattern (one frame and 0.5 s), coverage "
         "against integration time, radial density and points on a person-sized target, against "
         "Livox's official file of the head's type. DATASET: the same for the presets of its "

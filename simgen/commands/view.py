@@ -1,11 +1,12 @@
-"""`simgen view`: bird's-eye and side views of a clip's frames as PNGs and an MP4; frames as PCD or PLY."""
+"""`simgen view`: bird's-eye and side views of a clip's frames as PNGs and an MP4; frames as PCD or PLY;
+the clip as a Rerun recording."""
 
 from __future__ import annotations
 
 import time
 from pathlib import Path
 
-from simgen.commands.arguments import add_command, add_dataset_argument
+from simgen.commands.arguments import add_command, add_dataset_argument, frame_range
 from simgen.errors import UserError
 
 DEFAULT_PX_PER_M = 10.0
@@ -22,12 +23,17 @@ def register(subparsers) -> None:
         "intensity, the painted lines, each box with its track id and a heading arrow, grey when no "
         "point hit it; the sensors and their heads' boresights) above a side view (looking along +y, "
         "height stretched x4). Writes OUT/<clip>/frame_NNNNNN.png per frame and OUT/<clip>.mp4 "
-        "(mp4v, at the clip's frame rate). --export-frame writes frames' points as "
+        "(H.264, plays in browsers, at the clip's frame rate). --export-frame writes frames' points as "
         "OUT/<clip>/frame_NNNNNN.pcd or .ply (x, y, z in the pitch frame, metres, and intensity) "
-        "for CloudCompare or Open3D's viewer.",
+        "for CloudCompare or Open3D's viewer. --rerun FILE.rrd writes the same frames as a Rerun "
+        "recording (3D points coloured as above, boxes with track ids and headings, each head's field of "
+        "view, on a game-time timeline), with or without -o.",
     )
     add_dataset_argument(parser)
-    parser.add_argument("-o", "--output", type=Path, required=True, metavar="OUT", help="output directory (created)")
+    parser.add_argument("-o", "--output", type=Path, metavar="OUT", help="output directory (created) for PNGs, MP4 and exports")
+    parser.add_argument("--rerun", type=Path, metavar="FILE.rrd",
+                        help="also (or, without -o, only) write the frames as a Rerun recording: points, boxes with track "
+                        "ids and headings, sensor frusta, on a game-time timeline; open it with `rerun FILE.rrd`")
     parser.add_argument("--clip", help="clip id (default: the first clip)")
     parser.add_argument("--frames", default=":", metavar="A:B", help="frames A to B-1 (Python slice; default all), or one frame A")
     parser.add_argument("--colour", choices=COLOURINGS, default="height", help="colour points by height or intensity (default height)")
@@ -40,23 +46,6 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-def frame_range(text: str, frames: int) -> range:
-    """Frames of `A:B` (either may be left out) or `A`, within 0..frames-1; bad ones are a `UserError`."""
-    try:
-        if ":" in text:
-            start_text, stop_text = text.split(":", 1)
-            start = int(start_text) if start_text.strip() else 0
-            stop = int(stop_text) if stop_text.strip() else frames
-        else:
-            start = int(text)
-            stop = start + 1
-    except ValueError:
-        raise UserError(f"--frames: expected A:B or A (whole numbers), got {text!r}") from None
-    if not 0 <= start < stop <= frames:
-        raise UserError(f"--frames {text}: the clip has frames 0-{frames - 1}")
-    return range(start, stop)
-
-
 def run(args) -> int:
     from simgen.datasets import open_dataset
     from simgen.qa.checks import plural
@@ -65,6 +54,12 @@ def run(args) -> int:
 
     if not 1.0 <= args.scale <= 100.0:
         raise UserError(f"--scale must be in 1-100 pixels per metre, got {args.scale:g}")
+    if args.output is None and args.rerun is None:
+        raise UserError("nothing to write: give -o OUT (pictures, exports) or --rerun FILE.rrd")
+    if args.output is None and (args.export_frame or args.no_images):
+        raise UserError("--export-frame and --no-images need -o OUT")
+    if args.rerun is not None and (args.rerun.suffix != ".rrd" or args.rerun.is_dir()):
+        raise UserError(f"--rerun {args.rerun}: expected a file name ending in .rrd")
     if args.no_images and not args.export_frame:
         raise UserError("--no-images leaves nothing to write: add --export-frame I")
     started = time.perf_counter()
@@ -73,15 +68,23 @@ def run(args) -> int:
     frames = frame_range(args.frames, dataset.num_frames(clip))
     exports = [frame_range(str(i), dataset.num_frames(clip))[0] for i in args.export_frame]
     out = args.output
-    if out.exists() and not out.is_dir():
+    if out is not None and out.exists() and not out.is_dir():
         raise UserError(f"{out}: exists and is not a directory")
+    if args.rerun is not None:
+        from simgen.view.rerun_view import write_recording
+
+        written = write_recording(dataset, clip, frames, args.rerun, args.colour)
+        print(f"{args.rerun}: {plural(written, 'frame')} of {clip} (Rerun; open with `rerun {args.rerun}`)")
+    if out is None:
+        print(f"done in {time.perf_counter() - started:.1f} s")
+        return 0
     out.mkdir(parents=True, exist_ok=True)
     if not args.no_images:
         view = write_clip_view(dataset, clip, frames, out, args.colour, args.scale)
         last = f" ... frame_{frames.stop - 1:06d}.png" if len(frames) > 1 else ""
         print(f"{out / clip}/: {plural(view.frames, 'PNG')} frame_{frames.start:06d}.png{last} "
               f"({view.size_px[0]} x {view.size_px[1]} px)")
-        print(f"{view.video}: {plural(view.frames, 'frame')} at {dataset.manifest.sensors[0]['frame_rate_hz']:g} fps (mp4v)")
+        print(f"{view.video}: {plural(view.frames, 'frame')} at {dataset.manifest.sensors[0]['frame_rate_hz']:g} fps (H.264)")
     for index in exports:
         path = out / clip / f"frame_{index:06d}.{args.export_format}"
         path.parent.mkdir(parents=True, exist_ok=True)

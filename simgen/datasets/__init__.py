@@ -1,4 +1,5 @@
-"""Labelled datasets on disk: Parquet (the default), KITTI, KITTI tracking and OpenPCDet's custom format.
+"""Labelled datasets on disk: Parquet (the default), KITTI, KITTI tracking, OpenPCDet's custom format and
+ROS 2 bags in MCAP (`ros2_bag.py`).
 
 Writing: `write_clip` per clip (clips may be written by different processes), then
 `finish_dataset` once (ImageSets, manifest.json, README.md). Reading: `simgen.datasets.open(path)`,

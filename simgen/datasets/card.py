@@ -7,6 +7,7 @@ import json
 import pyarrow as pa
 
 from simgen.datasets import kitti_camera as camera
+from simgen.datasets import openpcdet_config, ros2_bag
 from simgen.datasets.manifest import MANIFEST_NAME, Manifest
 from simgen.datasets.samples import INTENSITY_SCALE, MAX_FRAMES_PER_CLIP, VAL_FRACTION
 from simgen.datasets.schema import BOX_CONVENTION, PITCH_FRAME, TABLES
@@ -30,17 +31,18 @@ def _schema_rows(schema: pa.Schema) -> list[list]:
 
 def _parquet_layout() -> list[str]:
     lines = [
-        "Apache Parquet, zstd, laid out like Waymo Open Dataset v2: one table per component, hive-partitioned by",
-        "clip (`<table>/clip=<clip id>/part-0.parquet`, so every reader below sees a `clip` column). `points` has one",
-        "row group per frame; `frames` and `boxes` row groups hold whole frames. Units and frames are also in each",
-        "field's metadata (`doc`, `unit`).",
+        "Apache Parquet, zstd, laid out like Waymo Open Dataset v2: one table per component, a file per clip",
+        "(`<table>/<clip id>/part-0.parquet`) whose rows carry their keys `clip` and `frame` inside the file (so a",
+        "file copied out of its folder still says what it holds), and `sensors/part-0.parquet` once per dataset.",
+        "`points` has one row group per frame; `frames` and `boxes` row groups hold whole frames. Units and frames",
+        "are also in each field's metadata (`doc`, `unit`).",
     ]
     for name, schema in TABLES.items():
         lines += ["", f"### `{name}`", "", *_table(["column", "type", "unit", "meaning"], _schema_rows(schema))]
     return lines
 
 
-def _kitti_layout(tracking: bool) -> list[str]:
+def _kitti_layout(tracking: bool, images: bool = False) -> list[str]:
     if tracking:
         files = [
             "- `training/velodyne/SSSS/NNNNNN.bin`: SSSS the clip index, NNNNNN the frame index in the clip",
@@ -54,6 +56,9 @@ def _kitti_layout(tracking: bool) -> list[str]:
             "- `training/calib/NNNNNN.txt`: KITTI object calib (`P0:`-`P3:`, `R0_rect:`, `Tr_velo_to_cam:`, `Tr_imu_to_velo:`)",
             "- `ImageSets/train.txt`, `val.txt`, `trainval.txt`: sample numbers, split by clip",
         ]
+        if images:
+            files.append("- `training/image_2/NNNNNN.png`: blank placeholders of the virtual camera's nominal size (1-bit PNG),"
+                         " for tools that open every image (OpenPCDet's KITTI info generation)")
     min_height_m = camera.MIN_BOX_PX * (camera.CAMERA_DISTANCE_M + camera.MAX_X_M) / camera.FOCAL_PX
     return [
         *files,
@@ -66,7 +71,7 @@ def _kitti_layout(tracking: bool) -> list[str]:
         f"a pinhole at pitch (-{camera.CAMERA_DISTANCE_M:g}, 0, 0) m looking along +x with KITTI's camera axes,",
         f"`x_cam = -y`, `y_cam = -z`, `z_cam = x + {camera.CAMERA_DISTANCE_M:g}` (`Tr_velo_to_cam`; `R0_rect` = identity;",
         f"`Tr_imu_to_velo` = identity, there is no IMU), focal length {camera.FOCAL_PX:g} px, principal point",
-        f"{camera.PRINCIPAL_PX} px, nominal image {camera.IMAGE_SIZE_PX[0]} x {camera.IMAGE_SIZE_PX[1]} px (no image files).",
+        f"{camera.PRINCIPAL_PX} px, nominal image {camera.IMAGE_SIZE_PX[0]} x {camera.IMAGE_SIZE_PX[1]} px (image files only as placeholders).",
         "`location` is the box's bottom centre in that camera, `h w l` its height, width (across the heading) and",
         "length (along it), `ry = -yaw - pi/2`; `alpha = ry - atan2(x_cam, z_cam)`. The 2D box is the projection of",
         "the 8 corners with P2 (not clipped): from that far the whole pitch has nearly one scale, and a box",
@@ -84,8 +89,12 @@ def _openpcdet_layout() -> list[str]:
         "- `labels/NNNNNN.txt`: `x y z dx dy dz heading name`, the box convention below (OpenPCDet's own)",
         "- `ImageSets/train.txt`, `val.txt`, `trainval.txt`: sample numbers, split by clip",
         "",
-        f"NNNNNN = clip index x {MAX_FRAMES_PER_CLIP} + frame index. Set `CLASS_NAMES: ['{PLAYER_CLASS}', '{OFFICIAL_CLASS}']` and a",
-        "`POINT_CLOUD_RANGE` that covers the pitch about its centre (the points are not centred on the sensor).",
+        f"NNNNNN = clip index x {MAX_FRAMES_PER_CLIP} + frame index. The `POINT_CLOUD_RANGE` must cover the pitch about",
+        "its centre (the points are not centred on the sensor).",
+        "",
+        "### OpenPCDet",
+        "",
+        *openpcdet_config.card_lines(),
     ]
 
 
@@ -106,9 +115,9 @@ def _loading(manifest: Manifest) -> list[str]:
             "As is, with the usual tools:",
             "",
             "```python",
-            "import pandas as pd; points = pd.read_parquet('points')            # clip becomes a column",
-            "import polars as pl; boxes = pl.read_parquet('boxes/**/*.parquet', hive_partitioning=True)",
-            "import pyarrow.dataset as ds; frames = ds.dataset('frames', partitioning='hive').to_table()",
+            "import pandas as pd; points = pd.read_parquet('points')            # clip and frame are columns",
+            "import polars as pl; boxes = pl.read_parquet('boxes/**/*.parquet')",
+            "import pyarrow.dataset as ds; frames = ds.dataset('frames').to_table()",
             "```",
             "",
             "```sh",
@@ -125,9 +134,10 @@ def dataset_card(manifest: Manifest) -> str:
     frames = f"{totals['frames']} ({splits['train']} / {splits['val']})"
     layout = {
         "parquet": _parquet_layout,
-        "kitti": lambda: _kitti_layout(False),
+        "kitti": lambda: _kitti_layout(False, bool(scenario.get("dataset", {}).get("kitti_images"))),
         "kitti_tracking": lambda: _kitti_layout(True),
         "openpcdet": _openpcdet_layout,
+        "mcap": ros2_bag.card_lines,
     }[manifest.format]()
     sensor_keys = list(manifest.sensors[0]) if manifest.sensors else []
     lines = [

@@ -1,7 +1,9 @@
 """KITTI-style layouts: `kitti` (object detection) and `kitti_tracking`.
 
 kitti:          training/velodyne/NNNNNN.bin, training/label_2/NNNNNN.txt, training/calib/NNNNNN.txt,
-                ImageSets/{train,val,trainval}.txt; NNNNNN the global sample number (simgen.datasets.samples)
+                ImageSets/{train,val,trainval}.txt; NNNNNN the global sample number (simgen.datasets.samples);
+                optionally training/image_2/NNNNNN.png, blank placeholders of the virtual camera's size
+                (OpenPCDet's KITTI info generation reads every image's shape)
 kitti_tracking: training/velodyne/SSSS/NNNNNN.bin, training/label_02/SSSS.txt (frame and track id
                 first), training/calib/SSSS.txt; SSSS the clip index, NNNNNN the frame index
 
@@ -21,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from simgen.datasets.frame import Frame, class_names
-from simgen.datasets.kitti_camera import calib_lines, kitti_boxes, pitch_boxes
+from simgen.datasets.kitti_camera import IMAGE_SIZE_PX, calib_lines, kitti_boxes, pitch_boxes
 from simgen.datasets.records import FileRecord, write_bytes, write_text
 from simgen.datasets.samples import float32_text, float64_text, from_xyzi, sample_name, to_xyzi
 from simgen.datasets.verify import DatasetFiles
@@ -47,6 +49,26 @@ def label_path(tracking: bool, clip_index: int, index: int = 0) -> str:
 
 def calib_path(tracking: bool, clip_index: int, index: int = 0) -> str:
     return f"training/calib/{clip_index:04d}.txt" if tracking else f"training/calib/{sample_name(clip_index, index)}.txt"
+
+
+def image_path(clip_index: int, index: int) -> str:
+    return f"training/image_2/{sample_name(clip_index, index)}.png"
+
+
+@functools.cache
+def placeholder_png() -> bytes:
+    """A blank 1-bit PNG of the virtual camera's nominal size (a few kB; decoded, one byte per pixel)."""
+    import cv2  # only for --kitti-images; readers of simgen.datasets need no OpenCV
+
+    ok, data = cv2.imencode(".png", np.zeros(IMAGE_SIZE_PX[::-1], np.uint8), [cv2.IMWRITE_PNG_BILEVEL, 1])
+    if not ok:
+        raise UserError("OpenCV could not encode the placeholder image")
+    return data.tobytes()
+
+
+def write_placeholder_images(root: Path, clips: Sequence[tuple[int, int]]) -> list[FileRecord]:
+    """training/image_2/NNNNNN.png for every (clip index, frames) of `clips`; rows = 1 (one image each)."""
+    return [write_bytes(root, image_path(clip_index, i), placeholder_png(), 1) for clip_index, frames in clips for i in range(frames)]
 
 
 def box_fields(boxes: NDArray) -> list[str]:

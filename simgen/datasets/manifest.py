@@ -17,7 +17,7 @@ from simgen.datasets.schema import BOX_CONVENTION, PITCH_FRAME, SCHEMA_VERSION
 from simgen.errors import UserError
 
 MANIFEST_NAME = "manifest.json"
-FORMATS = ("parquet", "kitti", "kitti_tracking", "openpcdet")
+FORMATS = ("parquet", "kitti", "kitti_tracking", "openpcdet", "mcap")
 #: Packages whose versions shape the data (the engine, ray casting, meshes, arrays, files).
 DATA_DEPENDENCIES = ("gfootball", "numpy", "open3d-cpu", "pyarrow", "pydantic", "scipy", "trimesh")
 

@@ -1,6 +1,7 @@
-"""The Parquet format (the default): one table per component, partitioned by clip, zstd.
+"""The Parquet format (the default): one table per component, a file per clip, zstd.
 
-`<table>/clip=<clip id>/part-0.parquet` for the tables of `simgen.datasets.schema`. `points` has
+`<table>/<clip id>/part-0.parquet` for `frames`, `points` and `boxes` (every row holds its `clip`
+and `frame`), `sensors/part-0.parquet` once per dataset (`simgen.datasets.schema`). `points` has
 one row group per frame (row group i is frame i, empty for a frame without points); `frames` and
 `boxes` have row groups of whole frames. Writer options are fixed and no time stamp is written, so
 the same frames give the same bytes. Pages carry CRC checksums, checked on read: a second guard
@@ -35,10 +36,16 @@ if TYPE_CHECKING:
 
 FRAMES_PER_GROUP = 1000  # row groups of `frames` and `boxes`
 OPEN_CLIPS = 4  # clips whose frames and boxes tables the reader keeps
+SENSORS_PATH = "sensors/part-0.parquet"
 
 
 def table_path(table: str, clip: str) -> str:
-    return f"{table}/clip={clip}/part-0.parquet"
+    """A per-clip table's file (a plain folder per clip, not hive-style: the clip is a column inside)."""
+    return f"{table}/{clip}/part-0.parquet"
+
+
+def _clip_column(clip: str, rows: int) -> pa.DictionaryArray:
+    return pa.DictionaryArray.from_arrays(pa.array(np.zeros(rows, np.int32)), pa.array([clip], pa.string()))
 
 
 def _fixed_list(values: NDArray, width: int) -> pa.FixedSizeListArray:
@@ -60,6 +67,7 @@ def frames_table(frames: Sequence[LabelledFrame]) -> pa.Table:
     return _table(
         "frames",
         {
+            "clip": _clip_column(frames[0].clip, len(frames)),
             "frame": np.array([f.index for f in frames], np.int32),
             "time_s": np.array([f.time_s for f in frames], np.float64),
             "label_time_s": np.array([f.label_time_s for f in frames], np.float64),
@@ -78,6 +86,7 @@ def points_table(frame: LabelledFrame) -> pa.Table:
     return _table(
         "points",
         {
+            "clip": _clip_column(frame.clip, len(points)),
             "frame": np.full(len(points), frame.index, np.int32),
             "x": points[:, 0],
             "y": points[:, 1],
@@ -95,8 +104,10 @@ def points_table(frame: LabelledFrame) -> pa.Table:
 def boxes_table(frames: Sequence[LabelledFrame]) -> pa.Table:
     labels = [f.labels for f in frames]
     boxes = np.concatenate([np.asarray(lab.boxes, np.float32).reshape(-1, 7) for lab in labels])
+    frame_column = np.concatenate([np.full(len(lab.boxes), f.index, np.int32) for f, lab in zip(frames, labels)])
     columns = {
-        "frame": np.concatenate([np.full(len(lab.boxes), f.index, np.int32) for f, lab in zip(frames, labels)]),
+        "clip": _clip_column(frames[0].clip, len(frame_column)),
+        "frame": frame_column,
         "track_id": np.concatenate([np.asarray(lab.track_id, np.int32) for lab in labels]),
         "team": _categories([lab.team for lab in labels]),
         "role": _categories([lab.role for lab in labels]),
@@ -129,9 +140,8 @@ def sensors_table(sensors: Sequence[SensorInfo]) -> pa.Table:
     )
 
 
-def _write_groups(root: Path, name: str, clip: str, groups: Iterator[pa.Table]) -> FileRecord:
-    """One file, one row group per table of `groups` (empty ones too)."""
-    relative = table_path(name, clip)
+def _write_groups(root: Path, name: str, relative: str, groups: Iterator[pa.Table]) -> FileRecord:
+    """One file of table `name`, one row group per table of `groups` (empty ones too)."""
     path = root / relative
     path.parent.mkdir(parents=True, exist_ok=True)
     schema = with_table_metadata(TABLES[name], name)
@@ -149,16 +159,20 @@ def _write_groups(root: Path, name: str, clip: str, groups: Iterator[pa.Table]) 
     return record_file(root, relative, rows)
 
 
-def write_parquet_clip(root: Path, frames: Sequence[LabelledFrame], sensors: Sequence[SensorInfo]) -> list[FileRecord]:
-    """Write one clip's four tables; returns their records."""
+def write_parquet_clip(root: Path, frames: Sequence[LabelledFrame]) -> list[FileRecord]:
+    """Write one clip's frames, points and boxes tables; returns their records."""
     clip = frames[0].clip
     chunks = [frames[i : i + FRAMES_PER_GROUP] for i in range(0, len(frames), FRAMES_PER_GROUP)]
     return [
-        _write_groups(root, "frames", clip, (frames_table(chunk) for chunk in chunks)),
-        _write_groups(root, "points", clip, (points_table(frame) for frame in frames)),
-        _write_groups(root, "boxes", clip, (boxes_table(chunk) for chunk in chunks)),
-        _write_groups(root, "sensors", clip, iter([sensors_table(sensors)])),
+        _write_groups(root, "frames", table_path("frames", clip), (frames_table(chunk) for chunk in chunks)),
+        _write_groups(root, "points", table_path("points", clip), (points_table(frame) for frame in frames)),
+        _write_groups(root, "boxes", table_path("boxes", clip), (boxes_table(chunk) for chunk in chunks)),
     ]
+
+
+def write_parquet_sensors(root: Path, sensors: Sequence[SensorInfo]) -> FileRecord:
+    """The dataset's one `sensors` table."""
+    return _write_groups(root, "sensors", SENSORS_PATH, iter([sensors_table(sorted(sensors, key=lambda s: s.sensor_id))]))
 
 
 def open_table(path: Path, name: str) -> pq.ParquetFile:
@@ -215,6 +229,9 @@ class ParquetReader:
         path = self.files.root / table_path("points", clip)
         if points.metadata.num_row_groups != count or not np.array_equal(frames["frame"].to_numpy(), np.arange(count)):
             raise UserError(f"{path}: row groups do not match the clip's {count} frames")
+        for name, table in (("frames", frames), ("boxes", boxes)):
+            if set(table["clip"].unique().to_pylist()) - {clip}:
+                raise UserError(f"{self.files.root / table_path(name, clip)}: rows of another clip than {clip}")
         offsets = np.searchsorted(boxes["frame"].to_numpy(), np.arange(count + 1))
         return _ClipTables(frames, boxes, offsets, points)
 

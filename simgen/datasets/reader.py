@@ -14,6 +14,7 @@ from simgen.datasets.kitti import KittiReader
 from simgen.datasets.manifest import ClipEntry, Manifest, read_manifest
 from simgen.datasets.openpcdet import OpenPCDetReader
 from simgen.datasets.parquet import ParquetReader
+from simgen.datasets.ros2_bag import BagReader
 from simgen.datasets.verify import DatasetFiles
 from simgen.errors import UserError
 
@@ -32,6 +33,8 @@ class Dataset:
             self._reader = ParquetReader(self.files)
         elif self.format == "openpcdet":
             self._reader = OpenPCDetReader(self.files, indices)
+        elif self.format == "mcap":
+            self._reader = BagReader(self.files, manifest.sensors)
         else:
             self._reader = KittiReader(self.files, indices, tracking=self.format == "kitti_tracking")
 

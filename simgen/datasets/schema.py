@@ -1,11 +1,13 @@
 """The Parquet tables of a dataset: their Arrow schemas, units and frames in the field metadata.
 
-Four tables, as Waymo Open Dataset v2 lays out its components, each partitioned by clip
-(`<table>/clip=<clip id>/part-0.parquet`, so pyarrow.dataset, pandas, polars and duckdb see a
-`clip` column): `frames` (one row per frame), `points` (one row per point, one row group per
-frame), `boxes` (one row per labelled humanoid per frame) and `sensors` (one row per sensor).
-Every field carries `doc` and `unit` metadata; every file carries `simgen.dataset` schema
-metadata (JSON: schema version, table name, pitch frame), which the reader checks.
+Four tables, as Waymo Open Dataset v2 lays out its components: `frames` (one row per frame),
+`points` (one row per point, one row group per frame) and `boxes` (one row per labelled humanoid
+per frame) in a file per clip (`<table>/<clip id>/part-0.parquet`), each row carrying its keys
+(`clip`, `frame`) inside the file, as Waymo's `key.*` columns do, so a file copied out of its
+folder still says what it holds; and `sensors` (one row per sensor), once per dataset
+(`sensors/part-0.parquet`). Every field carries `doc` and `unit` metadata; every file carries
+`simgen.dataset` schema metadata (JSON: schema version, table name, pitch frame), which the
+reader checks.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import pyarrow as pa
 
 from simgen.vocab import BALL_INSTANCE_ID, KEYPOINT_NAMES, NUM_KEYPOINTS, SEMANTIC_NAMES
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: `clip` column in every per-clip table, `sensors` once per dataset
 METADATA_KEY = b"simgen.dataset"
 PITCH_FRAME = "pitch: origin at the centre spot, x towards the right team's goal, y left, z up; metres"
 BOX_CONVENTION = (
@@ -33,10 +35,12 @@ def _metres(name: str, doc: str) -> pa.Field:
     return _field(name, pa.float32(), f"{doc}, pitch frame", "m")
 
 
+CLIP_FIELD = _field("clip", pa.dictionary(pa.int32(), pa.string()), "clip id (the file's folder name)")
 FRAME_FIELD = _field("frame", pa.int32(), "frame index in the clip, from 0")
 
 FRAMES = pa.schema(
     [
+        CLIP_FIELD,
         FRAME_FIELD,
         _field("time_s", pa.float64(), "game time of the start of the frame's sweep(s)", "s"),
         _field("label_time_s", pa.float64(), "game time the boxes describe (the middle of the sweep)", "s"),
@@ -50,6 +54,7 @@ FRAMES = pa.schema(
 
 POINTS = pa.schema(
     [
+        CLIP_FIELD,
         FRAME_FIELD,
         _metres("x", "point x"),
         _metres("y", "point y"),
@@ -75,6 +80,7 @@ BOX_FIELDS = ("x", "y", "z", "length", "width", "height", "yaw")
 
 BOXES = pa.schema(
     [
+        CLIP_FIELD,
         FRAME_FIELD,
         _field("track_id", pa.int32(), "humanoid id, stable over the clip"),
         _field("team", pa.dictionary(pa.int8(), pa.string()), "left, right or official"),
@@ -117,6 +123,7 @@ SENSORS = pa.schema(
 )
 
 TABLES: dict[str, pa.Schema] = {"frames": FRAMES, "points": POINTS, "boxes": BOXES, "sensors": SENSORS}
+CLIP_TABLES = ("frames", "points", "boxes")  # a file per clip; `sensors` is one file per dataset
 
 
 def with_table_metadata(schema: pa.Schema, table: str) -> pa.Schema:

@@ -15,10 +15,11 @@ from typing import TYPE_CHECKING
 
 from simgen import __version__
 from simgen.datasets.card import dataset_card
-from simgen.datasets.kitti import write_kitti_clip
+from simgen.datasets.kitti import write_kitti_clip, write_placeholder_images
 from simgen.datasets.manifest import FORMATS, MANIFEST_NAME, ClipEntry, Manifest, dependency_versions, manifest_bytes
 from simgen.datasets.openpcdet import write_openpcdet_clip
-from simgen.datasets.parquet import write_parquet_clip
+from simgen.datasets.parquet import write_parquet_clip, write_parquet_sensors
+from simgen.datasets.ros2_bag import write_mcap_clip
 from simgen.datasets.records import ClipRecord, FileRecord, write_bytes, write_text
 from simgen.datasets.samples import sample_name, val_clips
 from simgen.datasets.schema import SCHEMA_VERSION
@@ -29,7 +30,7 @@ if TYPE_CHECKING:
     from simgen.labels.labelled_frame import LabelledFrame
     from simgen.scan.sensor_info import SensorInfo
 
-#: Clip ids become directory names (`clip=<id>`) that readers parse: a leading letter keeps them strings.
+#: Clip ids become directory and file names: a leading letter, no '=' (not read as a hive partition).
 CLIP_ID = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
 IMAGE_SET_FORMATS = ("kitti", "openpcdet")
 
@@ -62,9 +63,11 @@ def write_clip(
     check_clip(format, frames, clip_index)
     root = Path(root)
     if format == "parquet":
-        files = write_parquet_clip(root, frames, sensors)
+        files = write_parquet_clip(root, frames)
     elif format == "openpcdet":
         files = write_openpcdet_clip(root, frames, clip_index)
+    elif format == "mcap":
+        files = write_mcap_clip(root, frames, sensors)
     else:
         files = write_kitti_clip(root, frames, clip_index, tracking=format == "kitti_tracking")
     return ClipRecord(
@@ -92,7 +95,10 @@ def _image_sets(root: Path, clips: Sequence[ClipRecord]) -> list[FileRecord]:
 def finish_dataset(
     root: Path, format: str, clips: Sequence[ClipRecord], sensors: Sequence[SensorInfo], scenario: Mapping, seed: int
 ) -> Manifest:
-    """Write the ImageSets (KITTI, OpenPCDet), manifest.json and README.md for the written clips."""
+    """Write the ImageSets (KITTI, OpenPCDet) or the sensors table (Parquet), manifest.json and README.md.
+
+    KITTI with `scenario["dataset"]["kitti_images"]` also gets placeholder training/image_2 PNGs.
+    """
     root = Path(root)
     clips = sorted(clips, key=lambda c: c.clip_index)
     if not clips:
@@ -106,6 +112,10 @@ def finish_dataset(
     files = [f for c in clips for f in c.files]
     if format in IMAGE_SET_FORMATS:
         files += _image_sets(root, clips)
+    if format == "parquet":
+        files.append(write_parquet_sensors(root, sensors))
+    if format == "kitti" and scenario.get("dataset", {}).get("kitti_images"):
+        files += write_placeholder_images(root, [(c.clip_index, c.frames) for c in clips])
     val = val_clips([c.clip_index for c in clips])
     manifest = Manifest(
         format=format,

@@ -11,18 +11,18 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from simgen.datasets import kitti, openpcdet
+from simgen.datasets import kitti, openpcdet, ros2_bag
 from simgen.datasets.manifest import MANIFEST_NAME, ClipEntry, read_manifest
 from simgen.datasets.parquet import open_table, table_path
 from simgen.datasets.reader import Dataset
-from simgen.datasets.schema import SCHEMA_VERSION, TABLES
+from simgen.datasets.schema import CLIP_TABLES, SCHEMA_VERSION, TABLES
 from simgen.errors import UserError
 from simgen.qa.checks import Problem
 from simgen.qa.label_checks import Locate, box_problems, count_problems, track_problems
 from simgen.qa.tolerances import LabelTolerances
 
 CARD_NAME = "README.md"  # written after the manifest, so not listed in it
-TRACKED_FORMATS = ("parquet", "kitti_tracking")
+TRACKED_FORMATS = ("parquet", "kitti_tracking", "mcap")
 
 
 @dataclass(frozen=True)
@@ -72,7 +72,9 @@ def file_problems(dataset: Dataset) -> list[Problem]:
 def clip_files(format: str, entry: ClipEntry) -> set[str]:
     """Relative paths of every file a clip's frames are read from."""
     if format == "parquet":
-        return {table_path(name, entry.clip) for name in TABLES}
+        return {table_path(name, entry.clip) for name in CLIP_TABLES}
+    if format == "mcap":
+        return {ros2_bag.bag_path(entry.clip)}
     frames = range(entry.frames)
     if format == "openpcdet":
         return {f(entry.clip_index, i) for i in frames for f in (openpcdet.points_path, openpcdet.labels_path)}
@@ -87,6 +89,9 @@ def locator(dataset: Dataset, entry: ClipEntry, first_row: dict[int, int]) -> Lo
     if format == "parquet":
         boxes = str(root / table_path("boxes", entry.clip))
         return lambda k, i: (boxes, first_row[k] + i)  # row index, from 0
+    if format == "mcap":
+        bag = str(root / ros2_bag.bag_path(entry.clip))
+        return lambda k, i: (bag, first_row[k] + i)  # box of the clip, from 0, in the /simgen/boxes messages
     if format == "kitti_tracking":
         labels = str(root / kitti.label_path(True, clip_index))
         return lambda k, i: (labels, first_row[k] + i + 1)  # line number, from 1

@@ -1,5 +1,6 @@
-"""The QA report on disk: index.html (opens from the file system, no server, no script needed to
-read it) and report.md with the same verdicts, tables and images.
+"""The QA report on disk: index.html (one self-contained file: every image embedded as a data URI,
+so it can be mailed or attached to a ticket alone; opens without a server or script) and report.md
+with the same verdicts, tables and images (linked to plots/*.png beside it).
 
 index.html marks its <body> with data-images-loaded="N/M" once the page has loaded, N of its M
 images decoded, so a headless browser can tell that every plot is there.
@@ -7,6 +8,7 @@ images decoded, so a headless browser can tell that every plot is there.
 
 from __future__ import annotations
 
+import base64
 import html
 from dataclasses import dataclass
 from pathlib import Path
@@ -81,7 +83,13 @@ def _md_table(table: Table) -> str:
     return "\n".join(lines)
 
 
-def to_html(report: Report) -> str:
+def data_uri(path: Path) -> str:
+    """A PNG file as a `data:` URI."""
+    return "data:image/png;base64," + base64.b64encode(path.read_bytes()).decode("ascii")
+
+
+def to_html(report: Report, out_dir: Path) -> str:
+    """The page, its images (paths relative to `out_dir`) embedded."""
     verdict = summary(list(report.checks))
     parts = [
         "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
@@ -96,7 +104,7 @@ def to_html(report: Report) -> str:
         if section.text:
             parts.append(f"<p>{html.escape(section.text)}</p>")
         for path, caption in section.images:
-            parts.append(f'<figure><img src="{html.escape(path)}" alt="{html.escape(caption)}"><figcaption>{html.escape(caption)}</figcaption></figure>')
+            parts.append(f'<figure><img src="{data_uri(out_dir / path)}" alt="{html.escape(caption)}"><figcaption>{html.escape(caption)}</figcaption></figure>')
         parts += [_html_table(t) for t in section.tables]
     parts += [IMAGES_LOADED, "</body></html>"]
     return "\n".join(parts) + "\n"
@@ -116,6 +124,6 @@ def to_markdown(report: Report) -> str:
 
 def write_report(report: Report, out_dir: Path) -> None:
     """index.html and report.md in `out_dir` (the images are already there)."""
-    for name, text in (("index.html", to_html(report)), ("report.md", to_markdown(report))):
+    for name, text in (("index.html", to_html(report, out_dir)), ("report.md", to_markdown(report))):
         with atomic_path(out_dir / name) as tmp:
             tmp.write_text(text, encoding="utf-8")

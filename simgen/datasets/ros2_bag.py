@@ -1,0 +1,337 @@
+"""A clip as a ROS 2 bag in MCAP (`mcap` + `mcap-ros2-support`, no ROS install), as Livox users record theirs.
+
+Topics (CDR-encoded, ROS 2 Humble message definitions):
+
+- `/simgen/<sensor name>/points`, `sensor_msgs/msg/PointCloud2`, one per sensor and frame (empty
+  frames too, so the k-th message of a topic is frame k). Points in the `pitch` frame (metres),
+  laid out as livox_ros_driver2 publishes its PointCloud2 (packed, little-endian): `x y z` float32
+  at 0, 4, 8, `intensity` float32 at 12 (reflectivity 0-255), `tag` uint8 at 16 (0: simgen has no
+  return flags), `line` uint8 at 17 (the head), `timestamp` float64 at 18 (the shot's time, ns, on
+  the stamps' clock); then simgen's own `offset_time` uint32 at 26 (ns since the header stamp, as
+  Livox's CustomMsg) and `instance_id` int32 at 30 (track id, 1000 the ball, -1 nothing). A dataset
+  that keeps no sensor per point (KITTI, OpenPCDet) has one topic, `/simgen/points`.
+- `/simgen/boxes`, `visualization_msgs/msg/MarkerArray` per frame: DELETEALL, then per humanoid a
+  CUBE (namespace `boxes`, marker id = track id, `text` the class, which RViz does not draw on a
+  cube) and a TEXT_VIEW_FACING (namespace `track_ids`) with the track id.
+- `/tf_static`, `tf2_msgs/msg/TFMessage` once: `pitch` -> each sensor's name, its pose.
+
+Stamps are game time (seconds since kick-off of the captured clip, not the Unix epoch): a cloud's
+header stamp is the frame's sweep start, the boxes' the label time. `BagWriter` takes frames one at
+a time and writes each as it comes.
+"""
+
+from __future__ import annotations
+
+import functools
+import io
+from collections.abc import Iterable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, BinaryIO
+
+import numpy as np
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+from mcap_ros2.writer import Writer
+from numpy.typing import NDArray
+from rosbags.typesys import Stores, get_typestore
+
+from simgen.atomic import atomic_path
+from simgen.datasets.frame import Frame, class_names
+from simgen.datasets.records import FileRecord, record_file
+from simgen.datasets.verify import DatasetFiles
+from simgen.errors import UserError
+from simgen.vocab import OFFICIAL_CLASS
+
+if TYPE_CHECKING:
+    from simgen.labels.labelled_frame import LabelledFrame
+    from simgen.scan.sensor_info import SensorInfo
+
+WORLD_FRAME = "pitch"
+ALL_POINTS_TOPIC = "/simgen/points"
+BOXES_TOPIC = "/simgen/boxes"
+TF_STATIC_TOPIC = "/tf_static"
+FLOAT32, FLOAT64, UINT8, UINT32, INT32 = 7, 8, 2, 6, 5  # sensor_msgs/PointField datatypes
+#: (name, offset, PointField datatype, numpy type): livox_ros_driver2's 26-byte point, then simgen's fields.
+POINT_FIELDS = (
+    ("x", 0, FLOAT32, "<f4"),
+    ("y", 4, FLOAT32, "<f4"),
+    ("z", 8, FLOAT32, "<f4"),
+    ("intensity", 12, FLOAT32, "<f4"),
+    ("tag", 16, UINT8, "u1"),
+    ("line", 17, UINT8, "u1"),
+    ("timestamp", 18, FLOAT64, "<f8"),
+    ("offset_time", 26, UINT32, "<u4"),
+    ("instance_id", 30, INT32, "<i4"),
+)
+POINT_STEP = 34
+POINT_DTYPE = np.dtype(
+    {"names": [f[0] for f in POINT_FIELDS], "formats": [f[3] for f in POINT_FIELDS],
+     "offsets": [f[1] for f in POINT_FIELDS], "itemsize": POINT_STEP}
+)
+BOX_COLOURS = {OFFICIAL_CLASS: (1.0, 0.9, 0.0, 0.6)}  # RGBA; players white
+PLAYER_COLOUR = (1.0, 1.0, 1.0, 0.6)
+TEXT_HEIGHT_M = 0.5
+SCHEMAS = ("sensor_msgs/msg/PointCloud2", "visualization_msgs/msg/MarkerArray", "tf2_msgs/msg/TFMessage")
+
+
+def points_topic(sensor_name: str) -> str:
+    return f"/simgen/{sensor_name}/points"
+
+
+def nanoseconds(seconds: float) -> int:
+    return int(round(seconds * 1e9))
+
+
+def _stamp(ns: int) -> dict:
+    return {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}
+
+
+def _header(ns: int, frame_id: str = WORLD_FRAME) -> dict:
+    return {"stamp": _stamp(ns), "frame_id": frame_id}
+
+
+def _quaternion_xyzw(yaw_rad: float) -> dict:
+    return {"x": 0.0, "y": 0.0, "z": float(np.sin(yaw_rad / 2)), "w": float(np.cos(yaw_rad / 2))}
+
+
+def sensor_quaternion(pose: Sequence[float]) -> NDArray[np.float64]:
+    """(4,) x, y, z, w of a sensor pose (x, y, z metres, roll, pitch, yaw degrees): sensor frame -> pitch frame."""
+    from scipy.spatial.transform import Rotation  # scipy.spatial and the scan stage are slow to import; only bags need them
+
+    from simgen.scan.sensor_rig import sensor_rotation
+    from simgen.scenario import SensorPose
+
+    x, y, z, roll, pitch, yaw = pose
+    return Rotation.from_matrix(sensor_rotation(SensorPose(x=x, y=y, z=z, roll=roll, pitch=pitch, yaw=yaw))).as_quat()
+
+
+def cloud_points(frame: Frame, mask: NDArray[np.bool_] | slice, stamp_ns: int) -> NDArray:
+    """The frame's points (those of `mask`) as a structured array of POINT_DTYPE."""
+    points = np.asarray(frame.points_m, np.float32)[mask]
+    out = np.zeros(len(points), POINT_DTYPE)
+    out["x"], out["y"], out["z"] = points[:, 0], points[:, 1], points[:, 2]
+    out["intensity"] = np.asarray(frame.intensity)[mask]
+    if frame.head is not None:
+        out["line"] = frame.head[mask]
+    if frame.time_offset_s is not None:
+        out["offset_time"] = np.rint(frame.time_offset_s[mask].astype(np.float64) * 1e9)
+    out["timestamp"] = stamp_ns + out["offset_time"].astype(np.float64)
+    out["instance_id"] = frame.instance_id[mask] if frame.instance_id is not None else -1
+    return out
+
+
+def cloud_message(points: NDArray, stamp_ns: int) -> dict:
+    return {
+        "header": _header(stamp_ns),
+        "height": 1,
+        "width": len(points),
+        "fields": [{"name": name, "offset": offset, "datatype": kind, "count": 1} for name, offset, kind, _ in POINT_FIELDS],
+        "is_bigendian": False,
+        "point_step": POINT_STEP,
+        "row_step": POINT_STEP * len(points),
+        "data": points.tobytes(),
+        "is_dense": True,
+    }
+
+
+def markers_message(frame: Frame, stamp_ns: int) -> dict:
+    """DELETEALL, then a CUBE and a track-id TEXT per box."""
+    header = _header(stamp_ns)
+    markers = [{"header": header, "ns": "boxes", "id": 0, "type": 0, "action": 3, "pose": {"orientation": {"w": 1.0}}}]
+    names = frame.class_name
+    ids = frame.track_id if frame.track_id is not None else np.arange(len(frame.boxes))
+    for box, name, track in zip(np.asarray(frame.boxes, np.float64), names, ids):
+        x, y, z, length, width, height, yaw = box.tolist()
+        r, g, b, a = BOX_COLOURS.get(str(name), PLAYER_COLOUR)
+        common = {"header": header, "id": int(track), "action": 0, "frame_locked": False}
+        markers.append({
+            **common, "ns": "boxes", "type": 1, "text": str(name),
+            "pose": {"position": {"x": x, "y": y, "z": z}, "orientation": _quaternion_xyzw(yaw)},
+            "scale": {"x": length, "y": width, "z": height}, "color": {"r": r, "g": g, "b": b, "a": a},
+        })
+        markers.append({
+            **common, "ns": "track_ids", "type": 9, "text": str(int(track)),
+            "pose": {"position": {"x": x, "y": y, "z": z + height / 2 + TEXT_HEIGHT_M}, "orientation": {"w": 1.0}},
+            "scale": {"z": TEXT_HEIGHT_M}, "color": {"r": r, "g": g, "b": b, "a": 1.0},
+        })
+    return {"markers": markers}
+
+
+def tf_static_message(sensors: Sequence[dict]) -> dict:
+    transforms = []
+    for sensor in sensors:
+        qx, qy, qz, qw = sensor_quaternion(sensor["pose"]).tolist()
+        x, y, z = (float(v) for v in sensor["pose"][:3])
+        transforms.append({
+            "header": _header(0), "child_frame_id": sensor["name"],
+            "transform": {"translation": {"x": x, "y": y, "z": z}, "rotation": {"x": qx, "y": qy, "z": qz, "w": qw}},
+        })
+    return {"transforms": transforms}
+
+
+class BagWriter:
+    """A ROS 2 MCAP bag written frame by frame: `add(frame)` for each, then `finish()`.
+
+    `sensors` are manifest `sensors` entries (name, pose, frame_rate_hz, ...); `per_sensor` False
+    puts every point on one topic (for frames that keep no sensor per point).
+    """
+
+    def __init__(self, stream: BinaryIO, sensors: Sequence[dict], per_sensor: bool = True):
+        typestore = get_typestore(Stores.ROS2_HUMBLE)
+        self.writer = Writer(stream)
+        self.schemas = {name: self.writer.register_msgdef(name, typestore.generate_msgdef(name, ros_version=2)[0]) for name in SCHEMAS}
+        self.sensors = sorted(sensors, key=lambda s: s["sensor_id"])
+        self.per_sensor = per_sensor
+        self.frame_s = 1.0 / float(self.sensors[0]["frame_rate_hz"]) if self.sensors else 0.1
+        self.messages = 0
+        self._write(TF_STATIC_TOPIC, "tf2_msgs/msg/TFMessage", tf_static_message(self.sensors), 0)
+
+    def _write(self, topic: str, schema: str, message: dict, stamp_ns: int) -> None:
+        self.writer.write_message(topic, self.schemas[schema], message, log_time=stamp_ns, publish_time=stamp_ns, sequence=self.messages)
+        self.messages += 1
+
+    def add(self, frame: Frame) -> None:
+        start_s = frame.time_s if frame.time_s is not None else frame.index * self.frame_s
+        stamp_ns = nanoseconds(start_s)
+        if self.per_sensor:
+            sensor = np.asarray(frame.sensor)
+            for info in self.sensors:
+                points = cloud_points(frame, sensor == info["sensor_id"], stamp_ns)
+                self._write(points_topic(info["name"]), SCHEMAS[0], cloud_message(points, stamp_ns), stamp_ns)
+        else:
+            self._write(ALL_POINTS_TOPIC, SCHEMAS[0], cloud_message(cloud_points(frame, slice(None), stamp_ns), stamp_ns), stamp_ns)
+        label_ns = nanoseconds(frame.label_time_s if frame.label_time_s is not None else start_s + self.frame_s / 2)
+        self._write(BOXES_TOPIC, SCHEMAS[1], markers_message(frame, label_ns), label_ns)
+
+    def finish(self) -> None:
+        self.writer.finish()
+
+
+def labelled_to_frame(frame: LabelledFrame) -> Frame:
+    """What the bag needs of a `LabelledFrame`, as the reader's `Frame`."""
+    scan, labels = frame.scan, frame.labels
+    return Frame(
+        clip=frame.clip, index=frame.index, points_m=scan.points_m, intensity=scan.intensity, boxes=labels.boxes,
+        class_name=class_names(labels.team), track_id=labels.track_id, time_s=frame.time_s,
+        label_time_s=frame.label_time_s, time_offset_s=scan.time_offset_s, sensor=scan.sensor, head=scan.head,
+        instance_id=scan.instance_id,
+    )
+
+
+@dataclass(frozen=True)
+class BagSummary:
+    messages: int
+    frames: int
+
+
+def write_bag(path: Path, frames: Iterable[Frame], sensors: Sequence[dict], per_sensor: bool = True) -> BagSummary:
+    """Write `frames` (an iterable of `Frame`, consumed one at a time) to `path` atomically."""
+    count = 0
+    with atomic_path(path) as tmp, tmp.open("wb") as stream:
+        bag = BagWriter(stream, sensors, per_sensor)
+        for frame in frames:
+            bag.add(frame)
+            count += 1
+        bag.finish()
+    return BagSummary(bag.messages, count)
+
+
+def bag_path(clip: str) -> str:
+    return f"{clip}.mcap"
+
+
+def write_mcap_clip(root: Path, frames: Sequence[LabelledFrame], sensors: Sequence[SensorInfo]) -> list[FileRecord]:
+    """`<clip>.mcap`; rows = messages."""
+    relative = bag_path(frames[0].clip)
+    root.mkdir(parents=True, exist_ok=True)
+    summary = write_bag(root / relative, (labelled_to_frame(f) for f in frames), [asdict(s) for s in sensors])
+    return [record_file(root, relative, summary.messages)]
+
+
+def read_bag(stream: BinaryIO) -> dict[str, list]:
+    """Decoded messages of a bag by topic, in log-time order."""
+    topics: dict[str, list] = {}
+    for _, channel, _, message in make_reader(stream, decoder_factories=[DecoderFactory()]).iter_decoded_messages(log_time_order=True):
+        topics.setdefault(channel.topic, []).append(message)
+    return topics
+
+
+def cloud_array(message) -> NDArray:
+    """A PointCloud2 message of POINT_DTYPE layout as a structured array."""
+    if message.point_step != POINT_STEP or [(f.name, f.offset, f.datatype) for f in message.fields] != [f[:3] for f in POINT_FIELDS]:
+        raise ValueError("not simgen's PointCloud2 layout")
+    return np.frombuffer(bytes(message.data), POINT_DTYPE, count=message.width)
+
+
+def boxes_of(message) -> tuple[NDArray[np.float32], NDArray[np.str_], NDArray[np.int32]]:
+    """(H, 7) boxes, class names and track ids of a MarkerArray's CUBE markers."""
+    cubes = [m for m in message.markers if m.ns == "boxes" and m.type == 1 and m.action == 0]
+    boxes = np.array(
+        [[m.pose.position.x, m.pose.position.y, m.pose.position.z, m.scale.x, m.scale.y, m.scale.z,
+          2 * np.arctan2(m.pose.orientation.z, m.pose.orientation.w)] for m in cubes], np.float64,
+    ).reshape(-1, 7)
+    boxes[:, 6] = np.pi - np.mod(np.pi - boxes[:, 6], 2 * np.pi)  # (-pi, pi]
+    return boxes.astype(np.float32), np.array([m.text for m in cubes], np.str_), np.array([m.id for m in cubes], np.int32)
+
+
+class BagReader:
+    """Frames of an `mcap` dataset (points grouped by sensor, in sensor order)."""
+
+    def __init__(self, files: DatasetFiles, sensors: Sequence[dict]):
+        self.files = files
+        self.sensors = sorted(sensors, key=lambda s: s["sensor_id"])
+        self._clip = functools.lru_cache(maxsize=2)(self._load)
+
+    def _load(self, clip: str) -> dict[str, list]:
+        relative = bag_path(clip)
+        data = self.files.read(relative)
+        try:
+            return read_bag(io.BytesIO(data))
+        except Exception as error:  # the mcap readers raise their own error types for a damaged file
+            raise UserError(f"{self.files.root / relative}: not a readable MCAP bag ({error.__class__.__name__}: {error})") from None
+
+    def frame(self, clip: str, index: int) -> Frame:
+        topics = self._clip(clip)
+        clouds = [(info["sensor_id"], topics.get(points_topic(info["name"]), [])) for info in self.sensors]
+        if ALL_POINTS_TOPIC in topics:
+            clouds = [(None, topics[ALL_POINTS_TOPIC])]
+        arrays = [(sensor, cloud_array(messages[index])) for sensor, messages in clouds]
+        points = np.concatenate([a for _, a in arrays]) if arrays else np.zeros(0, POINT_DTYPE)
+        header = clouds[0][1][index].header.stamp
+        stamp_ns = header.sec * 1_000_000_000 + header.nanosec
+        markers = topics[BOXES_TOPIC][index]
+        label = markers.markers[0].header.stamp
+        boxes, names, ids = boxes_of(markers)
+        return Frame(
+            clip=clip, index=index,
+            points_m=np.ascontiguousarray(np.stack([points["x"], points["y"], points["z"]], axis=1)),
+            intensity=points["intensity"].astype(np.uint8), boxes=boxes, class_name=names, track_id=ids,
+            time_s=stamp_ns / 1e9, label_time_s=(label.sec * 1_000_000_000 + label.nanosec) / 1e9,
+            time_offset_s=(points["offset_time"] / 1e9).astype(np.float32),
+            sensor=np.concatenate([np.full(len(a), s if s is not None else 0, np.uint8) for s, a in arrays]) if arrays else None,
+            head=points["line"].copy(), instance_id=points["instance_id"].copy(),
+        )
+
+
+def card_lines() -> list[str]:
+    """The dataset card's layout section for an `mcap` dataset."""
+    fields = [[f"`{name}`", offset, {FLOAT32: "FLOAT32", FLOAT64: "FLOAT64", UINT8: "UINT8", UINT32: "UINT32", INT32: "INT32"}[kind]]
+              for name, offset, kind, _ in POINT_FIELDS]
+    meaning = ["metres, pitch frame", "", "", "reflectivity 0-255", "0 (no return flags)", "head of the sensor",
+               "shot time, ns (header stamp + offset_time)", "ns since the header stamp", "track id, 1000 ball, -1 none"]
+    return [
+        "A ROS 2 bag in MCAP per clip, `<clip id>.mcap` (CDR, ROS 2 Humble message definitions in the file; open it",
+        "with Foxglove, `ros2 bag play`, `rosbags` or the `mcap` Python package). Stamps are game time, not the epoch.",
+        "",
+        f"- `{points_topic('<sensor name>')}`: `sensor_msgs/msg/PointCloud2` per sensor and frame (empty ones too),",
+        f"  frame `{WORLD_FRAME}`, {POINT_STEP}-byte little-endian points; the first 26 bytes are livox_ros_driver2's layout:",
+        "",
+        "| field | offset | type | meaning |",
+        "| --- | --- | --- | --- |",
+        *(f"| {name} | {offset} | {kind} | {text} |" for (name, offset, kind), text in zip(fields, meaning)),
+        "",
+        f"- `{BOXES_TOPIC}`: `visualization_msgs/msg/MarkerArray` per frame at the label time: DELETEALL, then per",
+        "  humanoid a CUBE (namespace `boxes`, id = track id, `text` = class) and a TEXT_VIEW_FACING track id.",
+        f"- `{TF_STATIC_TOPIC}`: `tf2_msgs/msg/TFMessage`, `{WORLD_FRAME}` -> each sensor's name (its pose).",
+    ]

@@ -1,0 +1,159 @@
+"""ROS 2 bags in MCAP: read back with both `mcap` (+ mcap-ros2-support) and `rosbags`, point by point
+against the Parquet dataset of the same frames; `simgen export` from Parquet and from KITTI."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from dataset_factory import make_clip, sensors, write_dataset
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+from rosbags.highlevel import AnyReader
+from rosbags.typesys import Stores, get_typestore
+from scipy.spatial.transform import Rotation
+
+import simgen.datasets
+from simgen.cli import main
+from simgen.datasets.ros2_bag import BOXES_TOPIC, POINT_DTYPE, TF_STATIC_TOPIC, points_topic
+from simgen.qa.sensors import sensor_geometry
+from simgen.scan.sensor_info import SensorInfo
+
+SECOND = SensorInfo(1, "mid40 far", "mid40-risley", (10.0, 36.0, 6.0, 0.0, -15.0, -90.0), 1, 100_000.0, 10.0, 1, 1.0)
+SENSORS = [*sensors(), SECOND]
+
+
+def _two_sensor_clip(clip: str, frames: int, seed: int):
+    """Factory frames whose points come from two sensors, interleaved."""
+    out = []
+    for frame in make_clip(clip, frames, seed=seed):
+        sensor = (np.arange(len(frame.scan.points_m)) % 3 == 0).astype(np.uint8)
+        out.append(dataclasses.replace(frame, scan=dataclasses.replace(frame.scan, sensor=sensor)))
+    return out
+
+
+CLIPS = [_two_sensor_clip("clip_0000", 4, 0), _two_sensor_clip("clip_0001", 3, 1)]
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory):
+    from simgen.datasets import finish_dataset, write_clip
+
+    root = tmp_path_factory.mktemp("bags")
+    for format in ("parquet", "mcap"):
+        records = [write_clip(root / format, format, frames, SENSORS, i) for i, frames in enumerate(CLIPS)]
+        finish_dataset(root / format, format, records, SENSORS, {"name": "two sensors"}, 3)
+    return root
+
+
+def _mcap_messages(path):
+    with path.open("rb") as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        summary = reader.get_summary()
+        messages = [(channel.topic, message) for _, channel, _, message in reader.iter_decoded_messages(log_time_order=True)]
+    return summary, messages
+
+
+def _rosbags_messages(path):
+    with AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
+        return [(c.topic, reader.deserialize(raw, c.msgtype)) for c, _, raw in reader.messages()]
+
+
+def _ns(stamp) -> int:
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+@pytest.mark.parametrize("library", ["mcap", "rosbags"])
+def test_every_point_and_box_matches_the_parquet_dataset(written, library):
+    parquet = simgen.datasets.open(written / "parquet")
+    for frames in CLIPS:
+        clip = frames[0].clip
+        path = written / "mcap" / f"{clip}.mcap"
+        messages = _mcap_messages(path)[1] if library == "mcap" else _rosbags_messages(path)
+        by_topic: dict[str, list] = {}
+        for topic, message in messages:
+            by_topic.setdefault(topic, []).append(message)
+        assert sorted(by_topic) == sorted([BOXES_TOPIC, TF_STATIC_TOPIC, *(points_topic(s.name) for s in SENSORS)])
+        for index in range(len(frames)):
+            want = parquet.frame(clip, index)
+            for info in SENSORS:
+                cloud = by_topic[points_topic(info.name)][index]
+                mine = want.sensor == info.sensor_id
+                got = np.frombuffer(bytes(cloud.data), POINT_DTYPE)
+                assert cloud.header.frame_id == "pitch" and cloud.width == len(got) == mine.sum()
+                assert _ns(cloud.header.stamp) == round(want.time_s * 1e9)
+                np.testing.assert_array_equal(np.stack([got["x"], got["y"], got["z"]], 1), want.points_m[mine])
+                np.testing.assert_array_equal(got["intensity"], want.intensity[mine])
+                np.testing.assert_array_equal(got["line"], want.head[mine])
+                np.testing.assert_array_equal(got["instance_id"], want.instance_id[mine])
+                assert np.all(np.abs(got["offset_time"] - want.time_offset_s[mine].astype(np.float64) * 1e9) <= 0.5)
+                np.testing.assert_array_equal(got["timestamp"], _ns(cloud.header.stamp) + got["offset_time"].astype(np.float64))
+            markers = by_topic[BOXES_TOPIC][index].markers
+            assert markers[0].action == 3  # DELETEALL: the previous frame's boxes go
+            cubes = [m for m in markers if m.ns == "boxes" and m.action == 0]
+            texts = [m for m in markers if m.ns == "track_ids"]
+            assert [m.id for m in cubes] == [int(t) for t in want.track_id] == [int(m.text) for m in texts]
+            assert [m.text for m in cubes] == list(want.class_name)
+            assert _ns(markers[0].header.stamp) == round(want.label_time_s * 1e9)
+            centres = np.array([[m.pose.position.x, m.pose.position.y, m.pose.position.z] for m in cubes]).reshape(-1, 3)
+            sizes = np.array([[m.scale.x, m.scale.y, m.scale.z] for m in cubes]).reshape(-1, 3)
+            np.testing.assert_array_equal(centres.astype(np.float32), want.boxes[:, :3])
+            np.testing.assert_array_equal(sizes.astype(np.float32), want.boxes[:, 3:6])
+            yaw = np.array([2 * np.arctan2(m.pose.orientation.z, m.pose.orientation.w) for m in cubes])
+            assert np.all(np.abs(np.angle(np.exp(1j * (yaw - want.boxes[:, 6])))) < 1e-6)
+
+
+def test_static_transforms_are_the_sensor_poses(written):
+    _, messages = _mcap_messages(written / "mcap" / "clip_0000.mcap")
+    (tf,) = [m for topic, m in messages if topic == TF_STATIC_TOPIC]
+    assert [t.child_frame_id for t in tf.transforms] == [s.name for s in SENSORS]
+    for transform, info in zip(tf.transforms, SENSORS):
+        geometry = sensor_geometry(dataclasses.asdict(info), {})
+        translation, rotation = transform.transform.translation, transform.transform.rotation
+        np.testing.assert_array_equal([translation.x, translation.y, translation.z], geometry.origin_m)
+        matrix = Rotation.from_quat([rotation.x, rotation.y, rotation.z, rotation.w]).as_matrix()
+        np.testing.assert_allclose(matrix, geometry.rotation, atol=1e-12)
+        assert transform.header.frame_id == "pitch"
+
+
+def test_the_summary_lists_the_ros2_schemas_and_every_message(written):
+    summary, messages = _mcap_messages(written / "mcap" / "clip_0000.mcap")
+    schemas = {s.name for s in summary.schemas.values()}
+    assert schemas == {"sensor_msgs/msg/PointCloud2", "visualization_msgs/msg/MarkerArray", "tf2_msgs/msg/TFMessage"}
+    assert {s.encoding for s in summary.schemas.values()} == {"ros2msg"}
+    assert summary.statistics.message_count == len(messages) == 1 + len(CLIPS[0]) * (len(SENSORS) + 1)
+
+
+def test_the_mcap_dataset_reads_back_through_simgen_datasets_open(written):
+    parquet, bags = simgen.datasets.open(written / "parquet"), simgen.datasets.open(written / "mcap")
+    assert bags.format == "mcap" and len(bags) == len(parquet)
+    for want, got in zip(parquet, bags):
+        order = np.argsort(want.sensor, kind="stable")  # the bag groups points by sensor
+        np.testing.assert_array_equal(got.points_m, want.points_m[order])
+        np.testing.assert_array_equal(got.sensor, want.sensor[order])
+        np.testing.assert_array_equal(got.instance_id, want.instance_id[order])
+        np.testing.assert_array_equal(got.track_id, want.track_id)
+        np.testing.assert_array_equal(got.boxes[:, :6], want.boxes[:, :6])
+        assert got.time_s == pytest.approx(want.time_s, abs=0.5e-9)  # stamps are whole nanoseconds
+        assert got.label_time_s == pytest.approx(want.label_time_s, abs=0.5e-9)
+
+
+def test_export_from_parquet_equals_the_generated_bag(written, tmp_path):
+    out = tmp_path / "clip.mcap"
+    assert main(["export", str(written / "parquet"), "--format", "mcap", "-o", str(out), "--clip", "clip_0001"]) == 0
+    assert out.read_bytes() == (written / "mcap" / "clip_0001.mcap").read_bytes()
+
+
+def test_export_from_kitti_has_one_points_topic(tmp_path, capsys):
+    write_dataset(tmp_path / "kitti", "kitti", [make_clip("clip_0000", 3)])
+    out = tmp_path / "kitti.mcap"
+    assert main(["export", str(tmp_path / "kitti"), "-o", str(out), "--frames", "1:3"]) == 0
+    assert capsys.readouterr().out.endswith(f"{out}: 2 frames of clip_0000, 5 messages (ROS 2, MCAP)\n")
+    kitti = simgen.datasets.open(tmp_path / "kitti")
+    clouds = [m for topic, m in _rosbags_messages(out) if topic == "/simgen/points"]
+    for index, cloud in zip((1, 2), clouds):
+        got = np.frombuffer(bytes(cloud.data), POINT_DTYPE)
+        np.testing.assert_array_equal(np.stack([got["x"], got["y"], got["z"]], 1), kitti.frame("clip_0000", index).points_m)
+    assert main(["export", str(tmp_path / "kitti"), "-o", str(tmp_path)]) == 2
+    assert capsys.readouterr().err == f"simgen export: error: {tmp_path}: is a directory, expected a file name\n"
