@@ -2,7 +2,7 @@
 
 Clips never share a file (Parquet partitions by clip id, the KITTI-style formats number samples
 by clip index), so clips can be written in parallel; `finish_dataset` then writes what needs them
-all: the train/val ImageSets, manifest.json and the dataset card README.md.
+all: the train/val ImageSets, the dataset card README.md and, last, manifest.json.
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ if TYPE_CHECKING:
 
 #: Clip ids become directory names (`clip=<id>`) that readers parse: a leading letter keeps them strings.
 CLIP_ID = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
+CARD_NAME = "README.md"
 IMAGE_SET_FORMATS = ("kitti", "openpcdet")
 
 
@@ -92,7 +93,7 @@ def _image_sets(root: Path, clips: Sequence[ClipRecord]) -> list[FileRecord]:
 def finish_dataset(
     root: Path, format: str, clips: Sequence[ClipRecord], sensors: Sequence[SensorInfo], scenario: Mapping, seed: int
 ) -> Manifest:
-    """Write the ImageSets (KITTI, OpenPCDet), manifest.json and README.md for the written clips."""
+    """Write the ImageSets (KITTI, OpenPCDet), README.md and manifest.json for the written clips."""
     root = Path(root)
     clips = sorted(clips, key=lambda c: c.clip_index)
     if not clips:
@@ -120,6 +121,11 @@ def finish_dataset(
         ),
         files=tuple(sorted(files, key=lambda f: f.path)),
     )
+    write_card(root, manifest)  # first: a dataset whose manifest exists always has its card
     write_bytes(root, MANIFEST_NAME, manifest_bytes(manifest), len(manifest.files))
-    write_bytes(root, "README.md", dataset_card(manifest).encode(), 0)
     return manifest
+
+
+def write_card(root: Path, manifest: Manifest) -> None:
+    """The dataset card, README.md, from the manifest."""
+    write_bytes(Path(root), CARD_NAME, dataset_card(manifest).encode(), 0)
