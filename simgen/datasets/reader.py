@@ -49,6 +49,9 @@ def check_files_match_clips(root: Path, manifest: Manifest) -> None:
             rows = listed[table_path("frames", entry.clip)].rows
             raise UserError(f"{where}: clip {entry.clip} lists {entry.frames} frames, its frames table {rows}")
         expected |= files
+    missing = sorted(expected - set(listed))
+    if missing:
+        raise UserError(f"{where}: {missing[0]} is not listed")
     extra = sorted(set(listed) - expected)
     if extra:
         raise UserError(f"{where}: {extra[0]} belongs to no listed clip frame (frames: {', '.join(f'{c.clip} {c.frames}' for c in manifest.clips[:3])})")
