@@ -592,3 +592,86 @@ def test_hostile_input_in_real_processes(tmp_path, written):
     finally:
         _restore(root, original)
     assert _listing(tmp_path) == before
+
+
+# --- the one YAML reader, disks that refuse, a run killed after its manifest ----------------------
+
+
+@pytest.mark.parametrize("document, problem", [
+    ("a: " + "[" * 5000 + "]" * 5000 + "\n", f"nested deeper than {MAX_YAML_DEPTH} levels"),
+    ("\n".join([f"l0: &l0 [{', '.join(['x'] * 10)}]"] + [f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 10)}]" for i in range(1, 9)]) + "\n",
+     f"aliases expand to more than {MAX_YAML_NODES:,} nodes"),
+    ("pattern: {}\npattern: {}\n", "duplicate key 'pattern'"),
+])
+def test_every_yaml_the_project_reads_goes_through_one_reader(tmp_path, document, problem):
+    from simgen.qa.tolerances import load_tolerances
+    from simgen.scenario import load_scenario
+    from train.config import load_config
+
+    path = tmp_path / "file.yaml"
+    path.write_text(document)
+    for load in (load_scenario, load_config, load_tolerances):
+        with pytest.raises(UserError, match=problem) as error:
+            load(path)
+        assert "\n" not in str(error.value)
+    for load in (load_scenario, load_config, load_tolerances):
+        with pytest.raises(UserError, match="not a regular file"):
+            load("/dev/zero")
+
+
+def _in_a_full_file_system(arguments: list, size_kib: int) -> subprocess.CompletedProcess:
+    """`simgen ARGUMENTS` with a tmpfs of `size_kib` mounted over the output's folder, in a private mount
+    namespace (`unshare -m`)."""
+    output = Path(arguments[arguments.index("-o") + 1])
+    script = (f"mount -t tmpfs -o size={size_kib}k tmpfs {output.parent} && cd {ROOT} && "
+              f"{sys.executable} -m simgen.cli {' '.join(map(str, arguments))}; code=$?; echo FILES; "
+              f"find {output.parent} -type f; exit $code")
+    return subprocess.run(["unshare", "-m", "sh", "-c", script], capture_output=True, text=True, timeout=600)
+
+
+def test_a_full_disk_is_one_line_and_exit_2(tmp_path, written):
+    """ENOSPC in `pattern` and `view` (images and exports): one line naming the output, exit 2, no temporary
+    file left and no partial .npz (listed inside the namespace: after it the tmpfs is gone)."""
+    probe = subprocess.run(["unshare", "-m", "sh", "-c", f"mount -t tmpfs tmpfs {tmp_path}"], capture_output=True)
+    if probe.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here (unshare -m: {probe.stderr.decode().strip()[:80]})")
+    full = tmp_path / "full"
+    full.mkdir()
+    root, _ = written["parquet"]
+    for arguments in (
+        ["pattern", "mid40-rose", "--seconds", "0.2", "-o", full / "p.npz"],
+        ["view", root, "-o", full / "view"],
+        ["view", root, "--no-images", "--export-frame", "0", "--export-frame", "1", "--export-format", "ply", "-o", full / "x"],
+    ):
+        result = _in_a_full_file_system(arguments, 16)
+        assert result.returncode == 2, (arguments, result.stderr[-500:])
+        last = result.stderr.strip().splitlines()[-1]
+        assert last.startswith(f"simgen {arguments[0]}: error: {full}"), result.stderr
+        assert "no space left" in last.lower() or "disk full" in last, result.stderr  # Open3D's own line may precede it
+        assert "Traceback" not in result.stderr
+        left = result.stdout.split("FILES\n", 1)[1].split()
+        assert not any(".tmp" in name for name in left), left  # no temporary left behind
+        assert str(full / "p.npz") not in left
+
+
+def test_resume_completes_a_run_killed_after_its_manifest(tmp_path):
+    """Killed after manifest.json: --resume writes the missing card and removes the run state, no clip redone."""
+    from simgen.datasets.card import dataset_card
+    from simgen.datasets.manifest import read_manifest
+    from simgen.pipeline.dataset_run import WORK_DIR, generate
+    from simgen.scenario import load_scenario
+
+    root = tmp_path / "d"
+    write_dataset(root, "parquet", sample_clips()[:2])
+    card = root / "README.md"
+    assert card.stat().st_mtime_ns <= (root / MANIFEST_NAME).stat().st_mtime_ns  # the card first, then the manifest
+    scenario = load_scenario(ROOT / "scenarios" / "smoke.yaml")
+    (root / WORK_DIR / "clips").mkdir(parents=True)
+    (root / WORK_DIR / "scenario.json").write_text(json.dumps(scenario.model_dump(mode="json"), sort_keys=True))
+    card.unlink()
+    manifest = (root / MANIFEST_NAME).read_bytes()
+    totals = generate(scenario, root, resume=True)
+    assert card.read_text() == dataset_card(read_manifest(root)) and (root / MANIFEST_NAME).read_bytes() == manifest
+    assert not (root / WORK_DIR).exists() and totals["clips"] == 2
+    with pytest.raises(UserError, match="already complete"):
+        generate(scenario, root, resume=True)
