@@ -1,8 +1,8 @@
 """YAML files checked by pydantic models, with one-line errors naming the field (scenarios, detector
 configs, QA tolerances).
 
-`read_yaml` is the project's only YAML reader. It refuses, in one line and in well under a second,
-what could make it slow or large: a file that is not a regular file or is over `MAX_YAML_BYTES`,
+`read_yaml` is the project's only YAML reader. It refuses, in one line and before building anything
+large, what could make it slow or large: a file that is not a regular file or is over `MAX_YAML_BYTES`,
 nesting deeper than `MAX_YAML_DEPTH`, aliases that expand to more than `MAX_YAML_NODES` nodes (a
 "billion laughs") or into themselves, and duplicate keys (which YAML would otherwise settle silently,
 the last one winning).

@@ -675,3 +675,33 @@ def test_resume_completes_a_run_killed_after_its_manifest(tmp_path):
     assert not (root / WORK_DIR).exists() and totals["clips"] == 2
     with pytest.raises(UserError, match="already complete"):
         generate(scenario, root, resume=True)
+
+
+def test_replay_files_come_from_the_scenario_folder_or_the_listed_ones(tmp_path, monkeypatch):
+    import numpy as np
+
+    from simgen.scenario import PATTERN_DIRS_ENV, load_scenario
+
+    elsewhere = tmp_path / "patterns"
+    elsewhere.mkdir()
+    t_s = np.arange(1, 101) * 1e-5
+    np.savez(elsewhere / "p.npz", t_s=t_s, azimuth_deg=np.sin(t_s * 1e4), zenith_deg=90 + np.cos(t_s * 1e4))
+    folder = tmp_path / "scenarios"
+    folder.mkdir()
+    (folder / "near.npz").write_bytes((elsewhere / "p.npz").read_bytes())
+
+    def scenario(file: str) -> Path:
+        path = folder / "s.yaml"
+        path.write_text(_dump({**BASE, "custom_sensors": [{"name": "c", "heads": [{"pattern": "replay", "params": {"file": file}}]}],
+                               "sensors": [{"preset": "c"}]}))
+        return path
+
+    monkeypatch.delenv(PATTERN_DIRS_ENV, raising=False)
+    near = load_scenario(scenario("near.npz")).custom_sensors[0].heads[0].params["file"]
+    assert near == str(folder / "near.npz")  # relative to the scenario's folder, recorded absolute
+    with pytest.raises(UserError, match=f"outside the scenario's folder and \\${PATTERN_DIRS_ENV}"):
+        load_scenario(scenario(str(elsewhere / "p.npz")))
+    with pytest.raises(UserError, match="outside the scenario's folder"):
+        load_scenario(scenario("../patterns/p.npz"))
+    monkeypatch.setenv(PATTERN_DIRS_ENV, f"/nonexistent:{elsewhere}")
+    assert load_scenario(scenario("../patterns/p.npz")).sensor_specs()[0].heads[0].params["file"] == str(elsewhere / "p.npz")
