@@ -619,11 +619,11 @@ def test_every_yaml_the_project_reads_goes_through_one_reader(tmp_path, document
             load("/dev/zero")
 
 
-def _in_a_full_file_system(arguments: list, size_kib: int) -> subprocess.CompletedProcess:
+def _in_a_full_file_system(arguments: list, size_kib: int, options: str = "rw") -> subprocess.CompletedProcess:
     """`simgen ARGUMENTS` with a tmpfs of `size_kib` mounted over the output's folder, in a private mount
     namespace (`unshare -m`)."""
     output = Path(arguments[arguments.index("-o") + 1])
-    script = (f"mount -t tmpfs -o size={size_kib}k tmpfs {output.parent} && cd {ROOT} && "
+    script = (f"mount -t tmpfs -o size={size_kib}k,{options} tmpfs {output.parent} && cd {ROOT} && "
               f"{sys.executable} -m simgen.cli {' '.join(map(str, arguments))}; code=$?; echo FILES; "
               f"find {output.parent} -type f; exit $code")
     return subprocess.run(["unshare", "-m", "sh", "-c", script], capture_output=True, text=True, timeout=600)
@@ -631,7 +631,7 @@ def _in_a_full_file_system(arguments: list, size_kib: int) -> subprocess.Complet
 
 def test_a_full_disk_is_one_line_and_exit_2(tmp_path, written):
     """ENOSPC in `pattern` and `view` (images and exports): one line naming the output, exit 2, no temporary
-    file left and no partial .npz (listed inside the namespace: after it the tmpfs is gone)."""
+    file left and no partial .npz (listed inside the namespace: after it the tmpfs is gone); EROFS too."""
     probe = subprocess.run(["unshare", "-m", "sh", "-c", f"mount -t tmpfs tmpfs {tmp_path}"], capture_output=True)
     if probe.returncode != 0:
         pytest.skip(f"cannot mount a small tmpfs here (unshare -m: {probe.stderr.decode().strip()[:80]})")
@@ -652,6 +652,8 @@ def test_a_full_disk_is_one_line_and_exit_2(tmp_path, written):
         left = result.stdout.split("FILES\n", 1)[1].split()
         assert not any(".tmp" in name for name in left), left  # no temporary left behind
         assert str(full / "p.npz") not in left
+    result = _in_a_full_file_system(["view", root, "-o", full / "view"], 16, "ro")  # EROFS
+    assert result.returncode == 2 and result.stderr == f"simgen view: error: {full / 'view'}: read-only file system\n", result.stderr
 
 
 def test_resume_completes_a_run_killed_after_its_manifest(tmp_path):
