@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import functools
 import os
+import stat
 import warnings
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,6 +27,8 @@ OFFICIAL_FILES = {"mid40": "mid40_official_4s.npz", "mid70": "mid70_official_4s.
 
 
 _EPS = 1e-6  # positions within this many shots of a file shot are that shot
+MAX_PATTERN_BYTES = 64 << 20  # a pattern file, and an .npz's members once decompressed (Livox's: 9.6 MB)
+PATTERN_SUFFIXES = (".npz", ".csv")
 
 
 class PatternFileNotFound(ValueError):
@@ -71,18 +75,46 @@ def resolve(source: str) -> Path:
     if not path.is_file():
         hint = " (set by $SIMGEN_LIVOX_DIR)" if source in OFFICIAL_FILES and os.environ.get("SIMGEN_LIVOX_DIR") else ""
         raise PatternFileNotFound(f"pattern file not found: {path}{hint}")
+    check_pattern_file(path)
     return path
+
+
+def check_pattern_file(path: Path) -> None:
+    """`ValueError` unless `path` is a regular .npz or .csv file of at most MAX_PATTERN_BYTES (an
+    .npz's members too, decompressed); says nothing of what the file holds."""
+    if path.suffix not in PATTERN_SUFFIXES:
+        raise ValueError(f"{path}: a pattern file is .npz or .csv, not {path.suffix or 'a file without suffix'}")
+    info = os.stat(path)
+    if not stat.S_ISREG(info.st_mode):
+        raise ValueError(f"{path}: not a regular file")
+    if info.st_size > MAX_PATTERN_BYTES:
+        raise ValueError(f"{path}: {info.st_size:,} bytes, a pattern file may have at most {MAX_PATTERN_BYTES:,}")
+    if path.suffix == ".npz":
+        try:
+            with zipfile.ZipFile(path) as archive:
+                unpacked = sum(member.file_size for member in archive.infolist())
+        except (zipfile.BadZipFile, OSError, ValueError):
+            raise ValueError(f"{path}: not an .npz archive") from None
+        if unpacked > MAX_PATTERN_BYTES:
+            raise ValueError(f"{path}: unpacks to {unpacked:,} bytes, a pattern file may have at most {MAX_PATTERN_BYTES:,}")
 
 
 @functools.lru_cache(maxsize=8)
 def load_pattern_file(source: str) -> PatternFile:
     """Load a pattern file: npz with t_s, azimuth_deg, zenith_deg, or Livox CSV `time,azimuth,zenith`."""
     path = resolve(source)
-    if path.suffix == ".npz":
-        with np.load(path) as data:
-            t, az, zen = (np.asarray(data[k], np.float64) for k in ("t_s", "azimuth_deg", "zenith_deg"))
-    else:
-        t, az, zen = _read_csv(path)
+    try:  # what a malformed file makes numpy say may quote it: never passed on
+        if path.suffix == ".npz":
+            with np.load(path, allow_pickle=False) as data:
+                t, az, zen = (np.asarray(data[k], np.float64).reshape(-1) for k in ("t_s", "azimuth_deg", "zenith_deg"))
+        else:
+            t, az, zen = _read_csv(path)
+    except (ValueError, KeyError, TypeError, OSError, EOFError, zipfile.BadZipFile, UnicodeDecodeError):
+        raise ValueError(
+            f"{path}: not a pattern file (.npz with t_s, azimuth_deg, zenith_deg, or CSV rows time,azimuth,zenith)"
+        ) from None
+    if not len(t) == len(az) == len(zen) or not (np.isfinite(t).all() and np.isfinite(az).all() and np.isfinite(zen).all()):
+        raise ValueError(f"{path}: t_s, azimuth_deg and zenith_deg must be finite columns of one length")
     if len(t) < 2 or np.any(np.diff(t) <= 0):
         raise ValueError(f"{path}: needs at least 2 shots in increasing time order")
     return PatternFile(path.name, t, dirs_from_livox(az, zen))
@@ -96,8 +128,8 @@ def file_shots(source: str) -> Shots:
 
 def _read_csv(path: Path) -> tuple[NDArray, NDArray, NDArray]:
     """Columns of a Livox CSV (a header line, then `time,azimuth,zenith` rows; extra columns ignored)."""
-    with open(path) as f:
-        first = f.readline()
+    with open(path, encoding="utf-8") as f:
+        first = f.readline(4096)
     try:
         [float(v) for v in first.split(",")[:3]]
         skip = 0

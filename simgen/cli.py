@@ -8,6 +8,7 @@ reported here as one line and exit code 2.
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import sys
 
@@ -15,6 +16,16 @@ from simgen import __version__
 from simgen.errors import UserError
 
 COMMANDS = ("capture", "generate", "validate", "pattern", "qa", "view", "verify", "export")
+#: What the disk or the file system can refuse any command that writes: one line and exit 2, not a traceback.
+DISK_ERRORS = {
+    errno.ENOSPC: "no space left on the device",
+    errno.EDQUOT: "disk quota exceeded",
+    errno.EFBIG: "file too large for the file system or the process's limit",
+    errno.EIO: "input/output error (a failing disk or network file system)",
+    errno.EACCES: "permission denied",
+    errno.EPERM: "operation not permitted",
+    errno.EROFS: "read-only file system",
+}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -44,6 +55,14 @@ def dispatch(prog: str, args: argparse.Namespace) -> int:
         return int(args.func(args) or 0)
     except UserError as error:
         print(f"{prog} {args.command}: error: {' '.join(str(error).splitlines())}", file=sys.stderr)
+        return 2
+    except OSError as error:
+        if error.errno not in DISK_ERRORS:
+            raise
+        filename = error.filename or getattr(args, "output", None)
+        where = f"{filename}: " if filename else ""
+        hint = " (files written so far are whole; `generate --resume` finishes a run)" if args.command == "generate" else ""
+        print(f"{prog} {args.command}: error: {where}{DISK_ERRORS[error.errno]}{hint}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"{prog} {args.command}: interrupted", file=sys.stderr)

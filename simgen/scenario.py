@@ -1,23 +1,38 @@
 """Scenario files: YAML validated by a pydantic schema.
 
 A scenario says what to simulate. Unknown keys, wrong types and out-of-range values are
-rejected with one line naming the field (`load_scenario` raises `UserError`).
+rejected with one line naming the field (`load_scenario` raises `UserError`), and so is
+everything a run would otherwise find out only mid-way: no frames to make, a frame that would
+not fit in memory, a replay file outside the folders it may come from.
 Sections: motion, scene, custom_sensors, sensors, scan, noise, dataset.
 """
 
 from __future__ import annotations
 
+import math
+import os
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_serializer, model_validator
 
 import scan_patterns
-from simgen.validation import read_yaml, validate
+from scan_patterns.replay import OFFICIAL_FILES
+from simgen.validation import one_line, read_yaml, validate
+
+#: Colon-separated folders besides the scenario's own that a replay head's `file` may come from.
+PATTERN_DIRS_ENV = "SIMGEN_PATTERN_DIRS"
+#: Shots per second of all sensors together, density included (16 Mid-100 at x4: 19.2 million).
+MAX_SHOTS_PER_S = 20_000_000
+#: Memory one frame's rendering may need: shots x (BYTES_PER_SHOT + subrays x BYTES_PER_RAY).
+MAX_FRAME_BYTES = 2 << 30
+BYTES_PER_SHOT = 64  # the shot's ray: origin, direction, time, sensor, head
+BYTES_PER_RAY = 256  # each cast ray's hit record, candidates and temporaries, rounded up
+MAX_KITTI_FRAMES = 10_000  # simgen.datasets.samples.MAX_FRAMES_PER_CLIP: sample numbers per clip
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class MotionConfig(_Strict):
@@ -102,7 +117,7 @@ class NoiseConfig(_Strict):
 
     range_sigma_m: float = Field(0.02, ge=0, le=1, description="Gaussian range noise, 1 sigma, metres.")
     angle_sigma_deg: float = Field(0.03, ge=0, le=1, description="Gaussian direction noise per axis across the beam, 1 sigma, degrees.")
-    divergence_deg: tuple[float, float] = Field(
+    divergence_deg: tuple[Annotated[float, Field(ge=0, le=10)], Annotated[float, Field(ge=0, le=10)]] = Field(
         (0.03, 0.28), description="Full beam divergence (horizontal, vertical), degrees."
     )
     subrays: int = Field(
@@ -115,16 +130,135 @@ class NoiseConfig(_Strict):
     dropout: float = Field(0.0, ge=0, lt=1, description="Probability that a return is lost at random.")
     enabled: bool = Field(True, description="False: exact ranges and directions, no dropout (range limits still apply).")
 
+    @model_validator(mode="after")
+    def _ranges_ordered(self) -> "NoiseConfig":
+        if self.min_range_m >= self.max_range_at_10pct_m:
+            raise ValueError(
+                f"min_range_m {self.min_range_m:g} m is not below max_range_at_10pct_m {self.max_range_at_10pct_m:g} m"
+            )
+        return self
+
+
+class RisleyParamsConfig(_Strict):
+    """`params` of a `risley` head: overrides of the Mid-40's fitted prisms (scan_patterns.RisleyParams)."""
+
+    wedge_deg: tuple[Annotated[float, Field(gt=0, lt=45)], Annotated[float, Field(gt=0, lt=45)]] | None = None
+    index: float | None = Field(None, gt=1.0, le=4.0, description="Refractive index of both prisms.")
+    rpm: tuple[Annotated[float, Field(ge=-100_000, le=100_000)], Annotated[float, Field(ge=-100_000, le=100_000)]] | None = None
+    phase_deg: tuple[Annotated[float, Field(ge=-360, le=360)], Annotated[float, Field(ge=-360, le=360)]] | None = None
+
+
+class RoseParamsConfig(_Strict):
+    """`params` of a `rose` head (scan_patterns.RoseParams)."""
+
+    k: float | None = Field(None, gt=0, le=1000)
+    petals_per_frame: float | None = Field(None, gt=0, le=10_000)
+    frame_rate_hz: float | None = Field(None, gt=0, le=1000)
+    theta0_hz: float | None = Field(None, ge=-1e6, le=1e6)
+
+
+class ReplayParamsConfig(_Strict):
+    """`params` of a `replay` head: `file`, an official recording (mid40, mid70) or a .npz / .csv file
+    in the scenario's folder or a folder of $SIMGEN_PATTERN_DIRS."""
+
+    file: str = Field(..., min_length=1, max_length=4096)
+
+    @field_validator("file")
+    @classmethod
+    def _confined(cls, file: str, info: ValidationInfo) -> str:
+        if file in OFFICIAL_FILES:
+            return file
+        base = (info.context or {}).get("scenario_dir")
+        path = Path(file)
+        if base is None and not path.is_absolute():
+            raise ValueError(f"replay file '{file}': a relative path needs the scenario file's folder")
+        resolved = (Path(base) / path if base is not None else path).resolve()
+        if base is not None:  # read from a scenario file: only its folder and the listed ones
+            allowed = [Path(base).resolve()] + [Path(d).resolve() for d in os.environ.get(PATTERN_DIRS_ENV, "").split(":") if d]
+            if not any(resolved == root or root in resolved.parents for root in allowed):
+                raise ValueError(f"replay file '{file}' is outside the scenario's folder and ${PATTERN_DIRS_ENV}")
+        if not resolved.is_file():
+            raise ValueError(f"replay file '{file}': no such regular file")
+        scan_patterns.replay.load_pattern_file(str(resolved))  # format and size; a ValueError never quotes the file
+        return str(resolved)
+
+
+_PARAMS = {"risley": RisleyParamsConfig, "rose": RoseParamsConfig, "replay": ReplayParamsConfig}
+
+
+class HeadConfig(_Strict):
+    """One head of a custom sensor: a pattern (or `like`: a preset whose first head it starts from) and overrides."""
+
+    like: str | None = Field(None, max_length=64, description="Sensor preset whose first head this one starts from.")
+    pattern: Literal["risley", "rose", "replay"] | None = None
+    params: dict[str, object] | None = Field(None, description="The pattern's parameters (Risley, rose or replay).")
+    shots_per_s: float | None = Field(None, gt=0, le=MAX_SHOTS_PER_S, description="Shots per second at density x1.")
+    fov_deg: float | None = Field(None, gt=0, lt=180, description="Full cone angle of the circular field of view.")
+    yaw_deg: float | None = Field(None, ge=-360, le=360)
+    pitch_deg: float | None = Field(None, ge=-90, le=90)
+    time_offset_s: float | None = Field(None, ge=0, le=1e6, description="How far ahead the head's pattern clock runs.")
+
+    @field_validator("like")
+    @classmethod
+    def _preset(cls, like: str | None) -> str | None:
+        if like is not None and like not in scan_patterns.sensor_names():
+            raise ValueError(f"unknown sensor preset '{like}' (known: {', '.join(scan_patterns.sensor_names())})")
+        return like
+
+    @field_validator("params", mode="before")
+    @classmethod
+    def _params_mapping(cls, params: object) -> object:
+        if params is not None and not isinstance(params, dict):
+            raise ValueError("params must be a mapping of the pattern's parameters")
+        return params
+
+    @model_validator(mode="after")
+    def _pattern_params(self, info: ValidationInfo) -> "HeadConfig":
+        if self.like is None and self.pattern is None:
+            raise ValueError("a head needs 'pattern' (risley, rose or replay) or 'like' (a sensor preset)")
+        pattern = self.pattern or scan_patterns.get_sensor(self.like).heads[0].pattern
+        if self.params is not None:
+            try:
+                typed = _PARAMS[pattern].model_validate(self.params, context=info.context)
+            except ValidationError as error:
+                raise ValueError(f"params of a {pattern} head: {one_line(error)}") from None
+            object.__setattr__(self, "params", typed.model_dump(exclude_none=True))
+        elif pattern == "replay" and self.like is None:
+            raise ValueError("a replay head needs params: {file: mid40 | mid70 | PATH}")
+        return self
+
+    @model_serializer(mode="wrap")
+    def _without_unset(self, handler):
+        return {key: value for key, value in handler(self).items() if value is not None}
+
+
+class CustomSensorConfig(_Strict):
+    """A sensor preset of this scenario (scan_patterns.make_sensor): a name no built-in preset has, and its heads."""
+
+    name: str = Field(..., pattern=r"^[A-Za-z0-9_.-]+$", max_length=64)
+    description: str = Field("", max_length=1000)
+    heads: list[HeadConfig] = Field(..., min_length=1, max_length=32)
+
+    @field_validator("name")
+    @classmethod
+    def _not_a_preset(cls, name: str) -> str:
+        if name in scan_patterns.sensor_names():
+            raise ValueError(f"'{name}' is a built-in sensor preset; give the custom sensor another name")
+        return name
+
+    def spec(self) -> scan_patterns.SensorSpec:
+        return scan_patterns.make_sensor(self.model_dump())
+
 
 class Scenario(_Strict):
     """A whole scenario file."""
 
-    name: str = Field(..., pattern=r"^[A-Za-z0-9_.-]+$", description="Short name, used in outputs.")
-    description: str = ""
+    name: str = Field(..., pattern=r"^[A-Za-z0-9_.-]+$", max_length=128, description="Short name, used in outputs.")
+    description: str = Field("", max_length=10_000)
     seed: int = Field(0, ge=0, lt=2**31, description="Seed of every random choice (engine included).")
     motion: MotionConfig = MotionConfig()
     scene: SceneConfig = SceneConfig()
-    custom_sensors: list[dict] = Field(
+    custom_sensors: list[CustomSensorConfig] = Field(
         default_factory=list,
         max_length=64,
         description="Sensor presets of this scenario: {name, description, heads: [{like: PRESET | pattern: risley|rose|replay, "
@@ -137,19 +271,30 @@ class Scenario(_Strict):
 
     @field_validator("custom_sensors")
     @classmethod
-    def _custom_sensors_are_sensors(cls, specs: list[dict]) -> list[dict]:
-        for spec in specs:
-            scan_patterns.make_sensor(spec)  # raises ValueError naming the problem
-        return specs
+    def _custom_sensors_are_sensors(cls, sensors: list[CustomSensorConfig]) -> list[CustomSensorConfig]:
+        names = [sensor.name for sensor in sensors]
+        for i, sensor in enumerate(sensors):
+            if names.index(sensor.name) != i:
+                raise ValueError(f"two custom sensors are named '{sensor.name}'")
+            try:
+                sensor.spec()
+            except (ValueError, TypeError) as error:  # what the pattern's own checks find
+                raise ValueError(f"custom sensor '{sensor.name}': {' '.join(str(error).splitlines())[:200]}") from None
+        return sensors
 
     def sensor_specs(self) -> list[scan_patterns.SensorSpec]:
         """The scan-pattern sensor of each entry of `sensors`: a custom one, else a registered preset."""
-        custom = {spec.name: spec for spec in map(scan_patterns.make_sensor, self.custom_sensors)}
+        custom = {sensor.name: sensor.spec() for sensor in self.custom_sensors}
         return [custom[s.preset] if s.preset in custom else scan_patterns.get_sensor(s.preset) for s in self.sensors]
+
+    def frames_per_clip(self) -> int:
+        """Frames of each clip: `scan.frames`, else as many as the captured motion covers."""
+        motion_s = (self.motion.frames - 1) / self.motion.capture_hz
+        return self.scan.frames or math.floor(motion_s * self.scan.frame_rate_hz + 1e-9)
 
     @model_validator(mode="after")
     def _presets_exist(self) -> "Scenario":
-        known = set(scan_patterns.sensor_names()) | {spec["name"] for spec in self.custom_sensors}
+        known = set(scan_patterns.sensor_names()) | {sensor.name for sensor in self.custom_sensors}
         for i, sensor in enumerate(self.sensors):
             if sensor.preset not in known:
                 raise ValueError(f"sensors.{i}.preset: unknown sensor preset '{sensor.preset}' (known: {', '.join(sorted(known))})")
@@ -163,14 +308,46 @@ class Scenario(_Strict):
                 f"scan.frames: {self.scan.frames} frames at {self.scan.frame_rate_hz:g} Hz need "
                 f"{self.scan.frames / self.scan.frame_rate_hz:.2f} s of motion, motion.frames gives {motion_s:.2f} s"
             )
+        if self.frames_per_clip() < 1:
+            raise ValueError(
+                f"no frames: motion.frames {self.motion.frames} at {self.motion.capture_hz} Hz give {motion_s:.2f} s of motion, "
+                f"less than one frame at scan.frame_rate_hz {self.scan.frame_rate_hz:g} (raise motion.frames or the frame rate)"
+            )
+        if self.dataset.format != "parquet" and self.frames_per_clip() > MAX_KITTI_FRAMES:
+            raise ValueError(
+                f"scan.frames: {self.frames_per_clip()} frames per clip; the {self.dataset.format} format numbers at most "
+                f"{MAX_KITTI_FRAMES} (lower scan.frames or motion.frames, or use more clips)"
+            )
+        return self
+
+    @model_validator(mode="after")
+    def _shot_budget(self) -> "Scenario":
+        shots_per_s = self.scan.density * sum(spec.shots_per_s for spec in self.sensor_specs())
+        if shots_per_s > MAX_SHOTS_PER_S:
+            raise ValueError(
+                f"shot budget: {len(self.sensors)} sensors at scan.density {self.scan.density:g} fire {shots_per_s:,.0f} shots/s, "
+                f"more than {MAX_SHOTS_PER_S:,} (lower scan.density, the number of sensors or custom heads' shots_per_s)"
+            )
+        shots_per_frame = shots_per_s / self.scan.frame_rate_hz
+        frame_bytes = shots_per_frame * (BYTES_PER_SHOT + self.noise.subrays * BYTES_PER_RAY)
+        if frame_bytes > MAX_FRAME_BYTES:
+            raise ValueError(
+                f"shot budget: a frame of {shots_per_frame:,.0f} shots x {self.noise.subrays} subrays needs about "
+                f"{frame_bytes / 2**30:.1f} GiB, more than {MAX_FRAME_BYTES / 2**30:g} (lower noise.subrays or scan.density, "
+                f"or raise scan.frame_rate_hz)"
+            )
         return self
 
 
-def parse_scenario(data: object, source: str = "scenario") -> Scenario:
-    """Validate a parsed YAML document; raise `UserError` naming the first bad field."""
-    return validate(Scenario, data, source)
+def parse_scenario(data: object, source: str = "scenario", scenario_dir: str | Path | None = None) -> Scenario:
+    """Validate a parsed YAML document; raise `UserError` naming the first bad field.
+
+    `scenario_dir`: the folder of the scenario file, which relative replay files are confined to
+    (with $SIMGEN_PATTERN_DIRS); they become absolute paths in the result.
+    """
+    return validate(Scenario, data, source, {"scenario_dir": scenario_dir} if scenario_dir is not None else None)
 
 
 def load_scenario(path: str | Path) -> Scenario:
     """Read and validate a scenario YAML file."""
-    return parse_scenario(read_yaml(path, "scenario"), str(path))
+    return parse_scenario(read_yaml(path, "scenario"), str(path), Path(path).parent)

@@ -215,7 +215,8 @@ def test_sigkill_at_random_moments_then_resume(reference, tmp_path):
         out = tmp_path / f"run{round_}"
         command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), *SMALL]
         resume = False
-        while not (out / "manifest.json").exists():
+        # until finished and cleaned up: a run killed after its manifest is resumed too
+        while not (out / "manifest.json").exists() or (out / ".simgen" / "scenario.json").exists():
             process = subprocess.Popen(command + (["--resume"] if resume else []), cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
             try:  # a random moment of an uninterrupted run's duration
                 process.wait(timeout=rng.uniform(0.15, 0.95) * duration_s)

@@ -37,8 +37,8 @@ def test_shipped_scenarios_are_valid(path):
         ({"name": "x", "sensors": [{"pose": {"pitch": 120}}]}, "'sensors.0.pose.pitch'"),
         ({"name": "x", "dataset": {"format": "las"}}, "'dataset.format'"),
         ({"name": "x", "sensors": [{"preset": "mid999"}]}, "sensors.0.preset: unknown sensor preset 'mid999'"),
-        ({"name": "x", "custom_sensors": [{"name": "w", "heads": [{"like": "mid40-rose", "fov_deg": 200}]}]}, "fov_deg must be in (0, 180)"),
-        ({"name": "x", "custom_sensors": [{"name": "w", "heads": [{"pattern": "spiral"}]}]}, "unknown pattern 'spiral'"),
+        ({"name": "x", "custom_sensors": [{"name": "w", "heads": [{"like": "mid40-rose", "fov_deg": 200}]}]}, "'custom_sensors.0.heads.0.fov_deg'"),
+        ({"name": "x", "custom_sensors": [{"name": "w", "heads": [{"pattern": "spiral"}]}]}, "'custom_sensors.0.heads.0.pattern'"),
         (["a", "list"], "expected a mapping"),
     ],
 )

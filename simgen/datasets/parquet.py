@@ -226,6 +226,9 @@ class ParquetReader:
         boxes = self._read("boxes", clip)
         points = self._open("points", clip)
         count = len(frames)
+        if count != self.files.rows(table_path("frames", clip)):  # never fewer frames than the files hold, silently
+            listed = self.files.rows(table_path("frames", clip))
+            raise UserError(f"{self.files.root / table_path('frames', clip)}: holds {count} frames, manifest.json lists {listed}")
         path = self.files.root / table_path("points", clip)
         if points.metadata.num_row_groups != count or not np.array_equal(frames["frame"].to_numpy(), np.arange(count)):
             raise UserError(f"{path}: row groups do not match the clip's {count} frames")

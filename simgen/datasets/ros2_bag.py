@@ -237,6 +237,11 @@ def write_bag(path: Path, frames: Iterable[Frame], sensors: Sequence[dict], per_
     return BagSummary(bag.messages, count)
 
 
+def bag_messages(frames: int, sensors: int) -> int:
+    """Messages in a clip's bag: the static transforms, then per frame a cloud per sensor and the boxes."""
+    return 1 + frames * (sensors + 1)
+
+
 def bag_path(clip: str) -> str:
     return f"{clip}.mcap"
 

@@ -29,6 +29,8 @@ class DatasetFiles:
         path = self.root / relative
         if not path.is_file():
             raise UserError(f"{path}: missing (listed in manifest.json)")
+        if relative not in self._checked and not path.resolve().is_relative_to(self.root.resolve()):
+            raise UserError(f"{path}: a link that leaves the dataset")
         return record
 
     def _check(self, relative: str, size: int, digest: str) -> None:

@@ -2,7 +2,7 @@
 
 Clips never share a file (Parquet partitions by clip id, the KITTI-style formats number samples
 by clip index), so clips can be written in parallel; `finish_dataset` then writes what needs them
-all: the train/val ImageSets, manifest.json and the dataset card README.md.
+all: the train/val ImageSets, the dataset card README.md and, last, manifest.json.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from simgen.datasets.kitti import write_kitti_clip, write_placeholder_images
 from simgen.datasets.manifest import FORMATS, MANIFEST_NAME, ClipEntry, Manifest, dependency_versions, manifest_bytes
 from simgen.datasets.openpcdet import write_openpcdet_clip
 from simgen.datasets.parquet import write_parquet_clip, write_parquet_sensors
-from simgen.datasets.ros2_bag import write_mcap_clip
 from simgen.datasets.records import ClipRecord, FileRecord, write_bytes, write_text
+from simgen.datasets.ros2_bag import write_mcap_clip
 from simgen.datasets.samples import sample_name, val_clips
 from simgen.datasets.schema import SCHEMA_VERSION
 from simgen.errors import UserError
@@ -32,6 +32,7 @@ if TYPE_CHECKING:
 
 #: Clip ids become directory and file names: a leading letter, no '=' (not read as a hive partition).
 CLIP_ID = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
+CARD_NAME = "README.md"
 IMAGE_SET_FORMATS = ("kitti", "openpcdet")
 
 
@@ -95,7 +96,8 @@ def _image_sets(root: Path, clips: Sequence[ClipRecord]) -> list[FileRecord]:
 def finish_dataset(
     root: Path, format: str, clips: Sequence[ClipRecord], sensors: Sequence[SensorInfo], scenario: Mapping, seed: int
 ) -> Manifest:
-    """Write the ImageSets (KITTI, OpenPCDet) or the sensors table (Parquet), manifest.json and README.md.
+    """Write the ImageSets (KITTI, OpenPCDet) or the sensors table (Parquet), README.md and, last,
+    manifest.json.
 
     KITTI with `scenario["dataset"]["kitti_images"]` also gets placeholder training/image_2 PNGs.
     """
@@ -130,6 +132,11 @@ def finish_dataset(
         ),
         files=tuple(sorted(files, key=lambda f: f.path)),
     )
+    write_card(root, manifest)  # first: a dataset whose manifest exists always has its card
     write_bytes(root, MANIFEST_NAME, manifest_bytes(manifest), len(manifest.files))
-    write_bytes(root, "README.md", dataset_card(manifest).encode(), 0)
     return manifest
+
+
+def write_card(root: Path, manifest: Manifest) -> None:
+    """The dataset card, README.md, from the manifest."""
+    write_bytes(Path(root), CARD_NAME, dataset_card(manifest).encode(), 0)

@@ -26,6 +26,7 @@ from simgen.errors import UserError
 from simgen.scenario import Scenario
 
 WORK_DIR = ".simgen"  # run state inside the output directory; removed when the dataset is finished
+CARD_NAME = "README.md"  # simgen.datasets.write.CARD_NAME (not imported: workers import this module light)
 Progress = Callable[[str, int, int], None]  # (event "start" | "frame" | "done", clip index, number)
 
 
@@ -85,8 +86,10 @@ class OutputLock:
         self._file.close()
 
 
-def prepare_output(root: Path, scenario: Scenario, resume: bool, overwrite: bool) -> None:
-    """Check the output directory against --resume/--overwrite; record the scenario for resumes."""
+def prepare_output(root: Path, scenario: Scenario, resume: bool, overwrite: bool) -> bool:
+    """Check the output directory against --resume/--overwrite; record the scenario for resumes.
+
+    True: a resumed run whose manifest is already written (only the card or the cleanup is left)."""
     state = root / WORK_DIR / "scenario.json"
     resolved = json.dumps(scenario.model_dump(mode="json"), sort_keys=True)
     complete = (root / "manifest.json").exists()
@@ -100,19 +103,22 @@ def prepare_output(root: Path, scenario: Scenario, resume: bool, overwrite: bool
                 shutil.rmtree(child) if child.is_dir() else child.unlink()
         shutil.rmtree(root / WORK_DIR / "clips", ignore_errors=True)
     elif resume and occupied:
-        if complete:
+        if complete and not interrupted and (root / CARD_NAME).exists():
             raise UserError(f"{root}: the dataset is already complete (manifest.json); nothing to resume")
-        if not interrupted:
+        if not (complete or interrupted):
             raise UserError(f"{root}: holds files but no interrupted simgen generate run to resume")
-        if state.read_text() != resolved:
+        if interrupted and state.read_text() != resolved:
             raise UserError(f"{root}: was started with another scenario or options; resume with the same ones, or --overwrite")
         for leftover in root.rglob("*.tmp-*"):  # files an interrupted writer never renamed
             leftover.unlink()
+        if complete:
+            return True
     elif occupied and not overwrite:
         raise UserError(f"{root}: already exists; use --resume to finish an interrupted run or --overwrite to replace it")
     (root / WORK_DIR / "clips").mkdir(parents=True, exist_ok=True)
     with atomic_path(state) as tmp:
         tmp.write_text(resolved)
+    return False
 
 
 def done_clips(root: Path) -> dict[int, dict]:
@@ -203,6 +209,17 @@ def finish(root: Path, scenario: Scenario, records: list[dict]):
     return manifest
 
 
+def finish_written(root: Path):
+    """A run killed after its manifest was written: the card if it is missing (the run state goes next)."""
+    from simgen.datasets.manifest import read_manifest
+    from simgen.datasets.write import write_card
+
+    manifest = read_manifest(root)
+    if not (root / CARD_NAME).exists():
+        write_card(root, manifest)
+    return manifest
+
+
 def generate(
     scenario: Scenario,
     root: Path,
@@ -224,23 +241,26 @@ def generate(
     lock = OutputLock(root)
     try:
         try:
-            prepare_output(root, scenario, resume, overwrite)
+            finished = prepare_output(root, scenario, resume, overwrite)
         except UserError:  # refused: leave the directory as it was
             if created_work:
                 shutil.rmtree(root / WORK_DIR)
             if created_root:
                 shutil.rmtree(root)
             raise
-        done = done_clips(root) if resume else {}
+        done = done_clips(root) if resume and not finished else {}
         payload = scenario.model_dump(mode="json")
         jobs = [ClipJob(payload, i, str(root)) for i in range(scenario.dataset.clips) if i not in done]
         notify = progress or (lambda *_: None)
-        if executor == "ray":
+        if finished:
+            manifest = finish_written(root)
+            done = {c.clip_index: None for c in manifest.clips}
+        elif executor == "ray":
             new = run_ray(jobs, address, notify) if jobs else []
         else:
             new = run_local(jobs, workers, notify)
-        records = list(done.values()) + new
-        manifest = finish(root, scenario, records)
+        if not finished:
+            manifest = finish(root, scenario, list(done.values()) + new)
     finally:
         lock.release()
     shutil.rmtree(root / WORK_DIR, ignore_errors=True)

@@ -12,16 +12,17 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from simgen.datasets import kitti, openpcdet, ros2_bag
-from simgen.datasets.manifest import MANIFEST_NAME, ClipEntry, read_manifest
+from simgen.datasets.manifest import MANIFEST_NAME, MAX_MANIFEST_BYTES, ClipEntry, read_manifest
 from simgen.datasets.parquet import open_table, table_path
-from simgen.datasets.reader import Dataset
-from simgen.datasets.schema import CLIP_TABLES, SCHEMA_VERSION, TABLES
+from simgen.datasets.reader import Dataset, clip_files
+from simgen.datasets.schema import SCHEMA_VERSION, TABLES
+from simgen.datasets.write import CARD_NAME  # describes the manifest, so not listed in it
 from simgen.errors import UserError
 from simgen.qa.checks import Problem
 from simgen.qa.label_checks import Locate, box_problems, count_problems, track_problems
 from simgen.qa.tolerances import LabelTolerances
+from simgen.validation import read_limited
 
-CARD_NAME = "README.md"  # written after the manifest, so not listed in it
 TRACKED_FORMATS = ("parquet", "kitti_tracking", "mcap")
 
 
@@ -38,8 +39,8 @@ def schema_problem(root: Path) -> Problem | None:
     """A manifest of another schema version (any other unreadable manifest is left to `read_manifest`)."""
     path = root / MANIFEST_NAME
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError):
+        data = json.loads(read_limited(path, "manifest", MAX_MANIFEST_BYTES))
+    except (UserError, ValueError, RecursionError):  # left to `read_manifest` to say
         return None
     if isinstance(data, dict) and data.get("schema_version") != SCHEMA_VERSION:
         return Problem(str(path), None, f"schema version {data.get('schema_version')}, this simgen reads {SCHEMA_VERSION}")
@@ -67,20 +68,6 @@ def file_problems(dataset: Dataset) -> list[Problem]:
         if path.relative_to(root).as_posix() not in listed:
             problems.append(Problem(str(path), None, "not listed in manifest.json (readers that glob the folders would read it)"))
     return problems
-
-
-def clip_files(format: str, entry: ClipEntry) -> set[str]:
-    """Relative paths of every file a clip's frames are read from."""
-    if format == "parquet":
-        return {table_path(name, entry.clip) for name in CLIP_TABLES}
-    if format == "mcap":
-        return {ros2_bag.bag_path(entry.clip)}
-    frames = range(entry.frames)
-    if format == "openpcdet":
-        return {f(entry.clip_index, i) for i in frames for f in (openpcdet.points_path, openpcdet.labels_path)}
-    tracking = format == "kitti_tracking"
-    paths = (kitti.velodyne_path, kitti.label_path, kitti.calib_path)
-    return {f(tracking, entry.clip_index, i) for i in frames for f in paths}
 
 
 def locator(dataset: Dataset, entry: ClipEntry, first_row: dict[int, int]) -> Locate:

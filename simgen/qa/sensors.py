@@ -10,6 +10,7 @@ from numpy.typing import NDArray
 
 import scan_patterns as sp
 from scan_patterns.shots import head_rotation
+from simgen.errors import UserError
 from simgen.scan.sensor_rig import sensor_rotation
 from simgen.scenario import SensorPose
 
@@ -35,9 +36,12 @@ class SensorGeometry:
 
 def sensor_spec(preset: str, scenario: dict) -> sp.SensorSpec:
     """The scan-pattern sensor of a preset name: the scenario's own `custom_sensors`, else the registry."""
-    for spec in scenario.get("custom_sensors") or []:
-        if spec.get("name") == preset:
-            return sp.make_sensor(spec)
+    try:
+        for spec in scenario.get("custom_sensors") or []:
+            if spec.get("name") == preset:
+                return sp.make_sensor(spec)
+    except (AttributeError, KeyError, TypeError, ValueError) as error:  # a manifest edited by hand
+        raise UserError(f"custom sensor {preset!r} of the dataset's scenario: {' '.join(str(error).splitlines())[:200]}") from None
     return sp.get_sensor(preset)
 
 

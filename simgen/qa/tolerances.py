@@ -8,9 +8,8 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import yaml
-
 from simgen.errors import UserError
+from simgen.validation import read_yaml
 
 DEFAULT_PATH = Path(__file__).with_name("tolerances.yaml")
 
@@ -68,12 +67,7 @@ def _section(path: Path, name: str, cls: type, data: dict) -> object:
 def load_tolerances(path: str | Path | None = None) -> Tolerances:
     """Tolerances from `path` (default: the shipped tolerances.yaml)."""
     path = Path(path) if path is not None else DEFAULT_PATH
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except OSError as error:
-        raise UserError(f"{path}: cannot read tolerances ({error.strerror})") from None
-    except (yaml.YAMLError, UnicodeDecodeError) as error:
-        raise UserError(f"{path}: not YAML ({str(error).splitlines()[0]})") from None
+    data = read_yaml(path, "tolerances")
     sections = {"pattern": PatternTolerances, "dataset": DatasetTolerances, "labels": LabelTolerances}
     if not isinstance(data, dict):
         raise UserError(f"{path}: expected the sections {', '.join(sections)}")

@@ -11,6 +11,8 @@ from simgen.datasets.frame import Frame
 from simgen.errors import UserError
 from simgen.view.output import atomic_suffixed
 
+BYTES_PER_POINT = 16  # binary PCD and PLY: x, y, z and intensity as float32
+
 
 def export_frame(frame: Frame, path: Path) -> None:
     """Write the frame's points to `path` (.pcd or .ply, binary)."""
@@ -22,3 +24,5 @@ def export_frame(frame: Frame, path: Path) -> None:
     with atomic_suffixed(path) as tmp:
         if not o3d.t.io.write_point_cloud(str(tmp), cloud):
             raise UserError(f"{path}: Open3D could not write the point cloud")
+        if tmp.stat().st_size < BYTES_PER_POINT * len(frame.points_m):  # Open3D reports a failed close (a full disk) as success
+            raise UserError(f"{path}: written incompletely (is the disk full?)")
