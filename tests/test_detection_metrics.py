@@ -95,6 +95,30 @@ def test_iou_threshold_is_inclusive_and_3d_needs_height():
     assert match_frame(FrameBoxes(lifted, np.ones(1, np.float32), truth), "3d", 0.5).tolist() == [False]
 
 
+def test_centre_distance_matches_within_metres_on_the_pitch_plane():
+    truth = np.array([[0, 0, 0.9, 0.8, 0.6, 1.8, 0.0]], np.float32)
+    near = truth + np.array([0.5, 0, 1.0, 0.5, 0, 0, 1.0], np.float32)  # 0.5 m on the pitch, other height and size
+    frame = FrameBoxes(near, np.ones(1, np.float32), truth)
+    assert match_frame(frame, "centre", 0.5).tolist() == [True]  # at the threshold: a match
+    assert match_frame(frame, "centre", 0.25).tolist() == [False]
+    assert match_frame(frame, "3d", 0.5).tolist() == [False]
+
+
+def test_ignored_boxes_count_neither_way():
+    """160 boxes, 80 of them ignored (no points): detections on those leave the ranking, the others score as
+    if the ignored boxes were not there; the missing visible ones are still misses."""
+    truth = boxes(np.random.default_rng(5), 160)
+    ignore = np.arange(160) % 2 == 1
+    scores = np.linspace(1.0, 0.2, 160).astype(np.float32)
+    frame = FrameBoxes(truth.copy(), scores, truth, ignore)
+    assert frame.counted_truth == 80
+    assert detection_ap([frame], "bev", 0.5, 40) == pytest.approx(100.0)
+    half = FrameBoxes(truth[:80].copy(), scores[:80], truth, ignore)  # finds 40 of the 80 visible boxes
+    alone = FrameBoxes(truth[:80:2].copy(), scores[:80:2], truth[~ignore])
+    assert detection_ap([half], "bev", 0.5, 40) == pytest.approx(detection_ap([alone], "bev", 0.5, 40))
+    assert detection_ap([half], "bev", 0.5, 40) == pytest.approx(50.0)  # recall 1/2 exactly: levels 1..20
+
+
 def test_edge_cases():
     assert average_precision(np.zeros(0, np.float32), np.zeros(0, bool), 5, 40) == 0.0
     assert math.isnan(average_precision(np.ones(2, np.float32), np.zeros(2, bool), 0, 40))
