@@ -260,13 +260,13 @@ def tracklets_per_frame(clips: ClipSet, rule: TrackletFilter | None) -> float:
     return sum(len(f.scores) for f in kept) / max(1, len(kept))
 
 
-def choose_tracklet_filter(train: ClipSet, val: ClipSet, configs: list[TrackerConfig]) -> FilterChoice:
+def choose_tracklet_filter(train: ClipSet, val: ClipSet, configs: list[TrackerConfig], progress: bool) -> FilterChoice:
     """The filter of train.tracklet_filter.GRID that FILTER_REFERENCE tracks best on the train clips."""
     reference = next((c for c in configs if c.name == FILTER_REFERENCE), None)
     if reference is None:
         raise UserError(f"tracker configs: none named {FILTER_REFERENCE!r}, whose sAMOTA chooses the tracklet filter")
     clips = [train.clip_frames(c) for c in train.clips]
-    chosen, scores = choose_filter(clips, [train.truth[c] for c in train.clips], reference)
+    chosen, scores = choose_filter(clips, [train.truth[c] for c in train.clips], reference, progress=progress)
     frames = sum(len(c) for c in clips)
     return FilterChoice(chosen, reference.name, scores, frames, (tracklets_per_frame(val, None), tracklets_per_frame(val, chosen)))
 
@@ -302,7 +302,7 @@ def run_study(options: StudyOptions, scenario: Scenario) -> StudyResult:
                 write_tracklets(options.out / model / "tracklets" / f"{clip}.npz", clip_rows)
     began = time.perf_counter()
     val, train = tracked
-    choice = choose_tracklet_filter(train, val, configs)
+    choice = choose_tracklet_filter(train, val, configs, options.progress)
     trackers = track(val, configs, choice.chosen, options.progress)
     now = time.perf_counter()
     return StudyResult(dataset, detectors, trackers, choice, now - began, now - start, options.device.type)

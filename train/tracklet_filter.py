@@ -21,6 +21,7 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
+from tqdm import tqdm
 
 from train.metrics.tracking import evaluate_tracking
 from train.nms import nms_bev, nms_centre
@@ -77,10 +78,11 @@ def choose_filter(
     truth: Sequence[Sequence[GroundTruthFrame]],
     reference: TrackerConfig,
     grid: Sequence[TrackletFilter] = GRID,
+    progress: bool = False,
 ) -> tuple[TrackletFilter, list[FilterScore]]:
     """The filter of `grid` under which `reference` tracks `clips` best (sAMOTA), and every filter's score."""
     scores = []
-    for rule in grid:
+    for rule in tqdm(grid, desc="choose tracklet filter", unit="filter", disable=not progress, dynamic_ncols=True):
         kept = [apply_filter(c, rule) for c in clips]
         tracks = [track_clip(make_tracker(reference), c) for c in kept]
         count = sum(len(f.scores) for c in kept for f in c) / max(1, sum(len(c) for c in kept))
