@@ -42,12 +42,33 @@ def test_2d_boxes_of_humanoids_are_tall_enough_for_kitti_evaluators():
 
 
 def test_the_nominal_image_holds_the_pitch_and_its_players():
-    x, y, z = np.meshgrid([-camera.MAX_X_M, camera.MAX_X_M], [-60.0, 60.0], [-1.0, 6.0])
+    x, y, z = np.meshgrid([-camera.MAX_X_M, camera.MAX_X_M], [-camera.MAX_Y_M, camera.MAX_Y_M], camera.Z_RANGE_M)
     cam = camera.to_camera(np.column_stack([x.ravel(), y.ravel(), z.ravel()]))
     u = camera.FOCAL_PX * cam[:, 0] / cam[:, 2] + camera.PRINCIPAL_PX[0]
     v = camera.FOCAL_PX * cam[:, 1] / cam[:, 2] + camera.PRINCIPAL_PX[1]
     assert u.min() >= 0 and u.max() <= camera.IMAGE_SIZE_PX[0]
     assert v.min() >= 0 and v.max() <= camera.IMAGE_SIZE_PX[1]
+
+
+def _float32_bev_area(boxes: np.ndarray, distance_m: float) -> np.ndarray:
+    """Shoelace area of each box's BEV rectangle in camera (x, z) coordinates, in float32 as GPU IoU kernels do."""
+    xy = camera.corners(boxes)[:, [0, 2, 6, 4], :2]  # bottom corners, in order around the box
+    x_cam, z_cam = (-xy[..., 1]).astype(np.float32), (xy[..., 0] + distance_m).astype(np.float32)
+    after_x, after_z = np.roll(x_cam, -1, axis=1), np.roll(z_cam, -1, axis=1)
+    return np.abs(np.sum(x_cam * after_z - after_x * z_cam, axis=1, dtype=np.float32)) / np.float32(2)
+
+
+def test_camera_coordinates_keep_float32_areas_exact_enough():
+    """A footprint computed in float32 camera coordinates, as OpenPCDet's IoU kernels do: with the camera near
+    the pitch the median error is under 0.01 % (at worst 0.5 % for a 0.2 m box); 1000 m away, over 0.1 %."""
+    rng = np.random.default_rng(2)
+    boxes = _boxes(rng, 500, 1.8).astype(np.float64)
+    exact = boxes[:, 3] * boxes[:, 4]
+    near = np.abs(_float32_bev_area(boxes, camera.CAMERA_DISTANCE_M) - exact) / exact
+    far = np.abs(_float32_bev_area(boxes, 1000.0) - exact) / exact
+    assert np.median(near) < 1e-4 and near.max() < 5e-3
+    assert np.median(far) > 1e-3
+    assert camera.to_camera(camera.corners(boxes).reshape(-1, 3))[:, 2].min() >= camera.NEAR_DEPTH_M - 1.0
 
 
 @pytest.mark.parametrize("yaw", [0.0, np.pi / 2, -np.pi / 2, np.pi, -3.0, 3.0])
@@ -57,7 +78,7 @@ def test_rotation_y_is_the_kitti_convention(yaw):
     expected = -float(box[0, 6]) - np.pi / 2
     assert np.cos(fields["ry"][0]) == pytest.approx(np.cos(expected)) and np.sin(fields["ry"][0]) == pytest.approx(np.sin(expected))
     assert -np.pi < fields["ry"][0] <= np.pi
-    np.testing.assert_array_equal(fields["location"][0], [5.0, 0.0, 1010.0])  # bottom centre, camera frame
+    np.testing.assert_array_equal(fields["location"][0], [5.0, 0.0, 10.0 + camera.CAMERA_DISTANCE_M])  # bottom centre
     np.testing.assert_array_equal(fields["dims"][0], np.array([1.8, 0.5, 1.0], np.float32))
 
 

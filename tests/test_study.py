@@ -13,7 +13,8 @@ from detector_support import SMOKE, tiny_config
 
 import simgen.datasets
 from train.cli import main
-from train.study import TRACKERS
+from train.study import TRACKER_CONFIGS
+from train.tracking.config import load_tracker_configs
 
 pytestmark = pytest.mark.engine
 NAME = "study_tiny"
@@ -63,10 +64,15 @@ def test_table1_has_a_row_per_model_and_the_command(study):
     text = (out / "table1.md").read_text()
     assert "Command: `simgen-train study " in text and "--iterations 2" in text and "Seed: 0" in text
     rows = [line for line in text.splitlines() if line.startswith("| ") and "(x1)" in line]
-    assert [row.split(" | ")[0][2:] for row in rows] == list(METHODS)
+    assert [row.split(" | ")[0][2:] for row in rows] == list(METHODS) * 2  # IoU AP, then centre-distance AP
+    assert "visible 3D" in text and "## Centre-distance AP" in text
     ap = list(csv.DictReader(open(out / "table1.csv")))
     boxes = {("single", "t"), ("early", "t"), ("late", "t"), ("late", "t-1"), ("late", "t-2")}
     assert {(r["model"], r["box"]) for r in ap} == boxes
+    assert {(r["truth_set"], r["iou"], r["threshold"]) for r in ap} == {
+        (s, i, d) for s in ("all", "visible") for i, d in [("bev", "0.5"), ("3d", "0.5"), ("centre", "0.25"),
+                                                             ("centre", "0.5"), ("centre", "1.0")]
+    }
     assert all(0.0 <= float(r["ap"]) <= 100.0 and int(r["truth"]) > 0 and r["iterations"] == "2" for r in ap)
     assert str(out / "table2.md") in stdout
 
@@ -74,10 +80,15 @@ def test_table1_has_a_row_per_model_and_the_command(study):
 def test_table2_has_every_tracker_at_both_ious(study):
     _, _, _, out, _ = study
     text = (out / "table2.md").read_text()
-    assert "## 3D IoU >= 0.25" in text and "## 3D IoU >= 0.5" in text
+    assert "## 3D IoU >= 0.25, filtered tracklets" in text and "## 3D IoU >= 0.5, unfiltered tracklets, for comparison" in text
+    assert "(chosen)" in text and "Chosen on the train clips" in text
     rows = list(csv.DictReader(open(out / "table2.csv")))
-    assert [(r["tracker"], r["min_iou"]) for r in rows] == [(name, iou) for name, _ in TRACKERS for iou in ("0.25", "0.5")]
-    assert all(0.0 <= float(r[k]) <= 1.0 for r in rows for k in ("samota", "amota", "amotp", "motp"))
+    names = [c.name for c in load_tracker_configs(TRACKER_CONFIGS)]
+    assert [(r["tracker"], r["tracklets"], r["min_iou"]) for r in rows] == [
+        (name, kind, iou) for kind in ("filtered", "unfiltered") for name in names for iou in ("0.25", "0.5")
+    ]
+    assert names[0] == "AB3DMOT" and names[1] == "3D DIoU" and names[-1] == "3D DIoU + birth/death + split"
+    assert all(0.0 <= float(r[k]) <= 1.0 for r in rows for k in ("samota", "amota", "amotp", "motp", "hota", "centre_hota"))
     assert all(int(r["n_gt"]) > 0 and int(r["tp"]) + int(r["fn"]) == int(r["n_gt"]) for r in rows)
     assert (out / "late" / "tracklets" / "clip_0001.npz").is_file()
 

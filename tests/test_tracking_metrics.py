@@ -9,7 +9,7 @@ import pytest
 
 from simgen.datasets.kitti import parse_labels
 from train.geometry import iou_3d_pairs
-from train.metrics.hota import hota
+from train.metrics.hota import centre_hota, centre_similarity, hota
 from train.metrics.kitti import write_kitti_tracking
 from train.metrics.tracking import evaluate_tracking, recall_thresholds, switches_and_fragments
 from train.tracking.types import GroundTruthFrame, TrackedFrame
@@ -170,6 +170,17 @@ def test_hota_hand_cases():
     result = hota([ground_truth(4)], [shifted])
     assert result.hota == pytest.approx(6 / 19)
     assert result.loca == pytest.approx((6 / 3 + 13) / 19)  # LocA is 1 where nothing matched
+
+
+def test_centre_hota_is_gs_hota_on_the_pitch_plane():
+    far = CUBE + np.array([5.0, 0, 3.0, 1.0, 0, 0, 1.0])  # 5 m away on the pitch; height, size, yaw ignored
+    np.testing.assert_allclose(centre_similarity(CUBE[None], np.stack([CUBE, far])), [[1.0, 0.05]])
+    # Similarity 0.05 at 5 m reaches alpha 0.05 only (1 of 19); the 3D IoU is 0: no match at all.
+    result = centre_hota([ground_truth(4)], [tracks(*[[(far, 7)]] * 4)])
+    assert result.hota == pytest.approx(1 / 19)
+    assert hota([ground_truth(4)], [tracks(*[[(far, 7)]] * 4)]).hota == 0.0
+    switch = tracks([(CUBE, 7)], [(CUBE, 7)], [(CUBE, 8)], [(CUBE, 8)])
+    assert centre_hota([ground_truth(4)], [switch]).hota == pytest.approx(np.sqrt(0.5))
 
 
 def test_kitti_export_reads_back_as_a_simgen_kitti_tracking_label(tmp_path):

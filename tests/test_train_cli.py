@@ -52,10 +52,13 @@ def test_eval_writes_ap_for_the_three_boxes(trained, tmp_path, capsys):
     code, err = call_train(capsys, "eval", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet")
     assert code == 0, err
     rows = list(csv.DictReader(open(tmp_path / "ap.csv")))
-    assert {(r["box"], r["iou"], r["recall_points"]) for r in rows} == {
-        (b, i, p) for b in ("t", "t-1", "t-2") for i in ("bev", "3d") for p in ("40", "11")
+    measures = [("bev", "0.5"), ("3d", "0.5"), ("centre", "0.25"), ("centre", "0.5"), ("centre", "1.0")]
+    assert {(r["truth_set"], r["box"], r["iou"], r["threshold"], r["recall_points"]) for r in rows} == {
+        (s, b, i, d, p) for s in ("all", "visible") for b in ("t", "t-1", "t-2") for i, d in measures for p in ("40", "11")
     }
     assert all(0.0 <= float(r["ap"]) <= 100.0 and int(r["truth"]) > 0 for r in rows)
+    truth = {(r["truth_set"], r["box"]): int(r["truth"]) for r in rows}
+    assert truth[("visible", "t")] <= truth[("all", "t")]
 
 
 @pytest.mark.engine

@@ -5,8 +5,11 @@
 2. Table 1: each model asked for (`late` always) is trained on the `train` clips (train.fit), or
    reused from `OUT/<model>/` when that checkpoint has the same config and data, and its boxes at t
    are scored on the `val` clips (train.evaluate: AP in BEV and 3D, IoU 0.5).
-3. Table 2: the `late` model's tracklets on the `val` clips go to AB3DMOT and to the 3D DIoU tracker
-   with and without birth/death and split; their tracks are scored against the labels (train.metrics).
+3. Table 2: the `late` model's tracklets are filtered for tracking (train.tracklet_filter: a score
+   threshold and a tight NMS, chosen on the `train` clips by the full 3D DIoU tracker's sAMOTA),
+   then the `val` clips' go to every tracker of train/configs/tracking/ (AB3DMOT, the 3D DIoU
+   tracker with and without birth/death and split); their tracks are scored against the labels
+   (train.metrics), and so are the trackers' tracks of the unfiltered tracklets, for comparison.
 
 Ground truth, as for AP: the objects of the detector's classes whose centre at t lies in its
 point range, on every frame with two before it (the first frame a tracklet can describe).
@@ -32,28 +35,25 @@ from train.checkpoint import load_checkpoint
 from train.config import DetectorConfig, load_config, parse_config
 from train.data import Sample
 from train.detections import ClipTracklets, clip_tracklets, write_tracklets
-from train.evaluate import ApRow, average_precisions, predict
+from train.evaluate import ApRow, average_precisions, predict, visible_objects
 from train.fit import CHECKPOINT_NAME, fit
+from train.metrics.hota import Hota, centre_hota, hota
 from train.metrics.tracking import TrackingMetrics, evaluate_tracking
 from train.models.detector import Detector
 from train.postprocess import Detections
-from train.tracking.ab3dmot import Ab3dmot
-from train.tracking.diou_tracker import DiouTracker, DiouTrackerConfig
+from train.tracking.clip import track_clip
+from train.tracking.config import TrackerConfig, load_tracker_configs, make_tracker
 from train.tracking.types import GroundTruthFrame, TrackedFrame, Tracklets
+from train.tracklet_filter import FilterScore, TrackletFilter, apply_filter, choose_filter
 
 MODELS = ("single", "early", "late")  # the paper's Table 1 methods
 TRACKED_MODEL = "late"
 # The paper's Table 1 rows per point density (x1: single, early, late; x2: single, late).
 PAPER_ROWS = {1.0: ("single", "early", "late"), 2.0: ("single", "late")}
-TRACKERS: tuple[tuple[str, DiouTrackerConfig | None], ...] = (  # None: AB3DMOT
-    ("AB3DMOT", None),
-    ("3D DIoU", DiouTrackerConfig(birth_death=False, split=False)),
-    ("3D DIoU + split", DiouTrackerConfig(birth_death=False)),
-    ("3D DIoU + birth/death", DiouTrackerConfig(split=False)),
-    ("3D DIoU + birth/death + split", DiouTrackerConfig()),
-)
 MIN_IOUS = (0.25, 0.5)  # 3D IoU of a true positive: AB3DMOT's default, and the stricter one
 CONFIGS = Path(__file__).parent / "configs"
+TRACKER_CONFIGS = CONFIGS / "tracking"  # one YAML per Table 2 row, in file-name order
+FILTER_REFERENCE = "3D DIoU + birth/death + split"  # the tracker whose sAMOTA on the train clips picks the filter
 TRAINED_ON = "trained_on.json"  # beside a study's checkpoint: the dataset and scenario it was fitted on
 GENERATE_STATE = Path(".simgen") / "scenario.json"  # an interrupted `simgen generate` run
 
@@ -70,6 +70,7 @@ class StudyOptions:
     configs: Path  # folder with <model>.yaml
     device: torch.device
     progress: bool
+    trackers: Path = TRACKER_CONFIGS  # folder of tracker configs
 
 
 @dataclass(frozen=True)
@@ -95,8 +96,22 @@ class DetectorResult:
 @dataclass(frozen=True)
 class TrackerResult:
     tracker: str
+    filtered: bool  # False: the detector's tracklets as they are
     min_iou: float
     metrics: TrackingMetrics
+    hota: Hota  # 3D IoU similarity
+    centre_hota: Hota  # pitch-plane centre distance, 5 m Gaussian tolerance (as SoccerNet's GS-HOTA)
+
+
+@dataclass(frozen=True)
+class FilterChoice:
+    """The tracklet filter and how it was chosen: every candidate's sAMOTA on the train clips."""
+
+    chosen: TrackletFilter
+    reference: str  # tracker
+    scores: list[FilterScore]
+    train_frames: int
+    val_tracklets_per_frame: tuple[float, float]  # before and after the filter
 
 
 @dataclass(frozen=True)
@@ -104,6 +119,7 @@ class StudyResult:
     dataset: StudyDataset
     detectors: list[DetectorResult]
     trackers: list[TrackerResult]
+    filter: FilterChoice
     tracking_s: float
     seconds: float  # the whole study
     device: str
@@ -187,20 +203,22 @@ def trained_model(options: StudyOptions, model: str, dataset: StudyDataset) -> t
 
 
 @dataclass(frozen=True)
-class ValDetections:
-    """A model's tracklets and the ground truth on the val clips, per clip, frame for frame."""
+class ClipSet:
+    """A model's tracklets and the ground truth on some clips, per clip, frame for frame."""
 
     tracklets: dict[str, ClipTracklets]
     frames: dict[str, list[int]]  # frames t with two before them
     truth: dict[str, list[GroundTruthFrame]]
 
+    def clip_frames(self, clip: str) -> list[Tracklets]:
+        return [Tracklets(*self.tracklets[clip].at(f)) for f in self.frames[clip]]
 
-def detect_val(
-    model: Detector, config: DetectorConfig, dataset: StudyDataset, options: StudyOptions
-) -> tuple[list[ApRow], ValDetections]:
-    """One inference pass over the val clips: AP rows, tracklets and the ground truth they are scored on."""
-    predicted = predict(model, config, str(dataset.path), "val", options.device, options.progress)
-    results = [(replace(s, points=()), d) for s, d in predicted]  # the points are not needed again
+    @property
+    def clips(self) -> list[str]:
+        return sorted(self.tracklets)
+
+
+def clip_set(results: list[tuple[Sample, Detections]]) -> ClipSet:
     by_clip: dict[str, list[tuple[Sample, Detections]]] = {}
     for sample, detected in results:
         by_clip.setdefault(sample.clip, []).append((sample, detected))
@@ -210,29 +228,66 @@ def detect_val(
     }
     frames = {clip: [s.index for s, _ in rows] for clip, rows in by_clip.items()}
     truth = {clip: [GroundTruthFrame(s.boxes[:, -1], s.track_id) for s, _ in rows] for clip, rows in by_clip.items()}
-    return average_precisions(results), ValDetections(tracklets, frames, truth)
+    return ClipSet(tracklets, frames, truth)
 
 
-def run_tracker(config: DiouTrackerConfig | None, tracklets: ClipTracklets, frames: list[int]) -> list[TrackedFrame]:
-    """One clip through AB3DMOT (config None) or the 3D DIoU tracker, one output per frame."""
-    tracker = Ab3dmot() if config is None else DiouTracker(config)
-    return [tracker.step(Tracklets(*tracklets.at(f))) for f in frames]
+def detect_split(
+    model: Detector, config: DetectorConfig, dataset: StudyDataset, split: str, options: StudyOptions
+) -> list[tuple[Sample, Detections]]:
+    """One inference pass over a split's clips; the samples without their points."""
+    predicted = predict(model, config, str(dataset.path), split, options.device, options.progress)
+    return [(replace(s, points=()), d) for s, d in predicted]
 
 
-def track(detections: ValDetections, progress: bool) -> list[TrackerResult]:
-    """Table 2: every tracker on every val clip, scored at each of MIN_IOUS."""
-    clips = sorted(detections.tracklets)
-    truth = [detections.truth[c] for c in clips]
+def detect_val(
+    model: Detector, config: DetectorConfig, dataset: StudyDataset, options: StudyOptions
+) -> tuple[list[ApRow], ClipSet]:
+    """One inference pass over the val clips: AP rows (all boxes and visible ones), tracklets and ground truth."""
+    results = detect_split(model, config, dataset, "val", options)
+    visible = visible_objects(simgen.datasets.open(dataset.path), [s for s, _ in results])
+    return average_precisions(results, visible), clip_set(results)
+
+
+def run_tracker(config: TrackerConfig, clips: ClipSet, rule: TrackletFilter | None) -> list[list[TrackedFrame]]:
+    """Every clip through a fresh tracker, one output per frame; tracklets filtered by `rule` unless None."""
+    frames = [clips.clip_frames(c) for c in clips.clips]
+    return [track_clip(make_tracker(config), f if rule is None else apply_filter(f, rule)) for f in frames]
+
+
+def tracklets_per_frame(clips: ClipSet, rule: TrackletFilter | None) -> float:
+    frames = [f for c in clips.clips for f in clips.clip_frames(c)]
+    kept = frames if rule is None else apply_filter(frames, rule)
+    return sum(len(f.scores) for f in kept) / max(1, len(kept))
+
+
+def choose_tracklet_filter(train: ClipSet, val: ClipSet, configs: list[TrackerConfig], progress: bool) -> FilterChoice:
+    """The filter of train.tracklet_filter.GRID that FILTER_REFERENCE tracks best on the train clips."""
+    reference = next((c for c in configs if c.name == FILTER_REFERENCE), None)
+    if reference is None:
+        raise UserError(f"tracker configs: none named {FILTER_REFERENCE!r}, whose sAMOTA chooses the tracklet filter")
+    clips = [train.clip_frames(c) for c in train.clips]
+    chosen, scores = choose_filter(clips, [train.truth[c] for c in train.clips], reference, progress=progress)
+    frames = sum(len(c) for c in clips)
+    return FilterChoice(chosen, reference.name, scores, frames, (tracklets_per_frame(val, None), tracklets_per_frame(val, chosen)))
+
+
+def track(val: ClipSet, configs: list[TrackerConfig], rule: TrackletFilter, progress: bool) -> list[TrackerResult]:
+    """Table 2: every tracker on every val clip, tracklets filtered by `rule` and unfiltered, scored at each of MIN_IOUS."""
+    truth = [val.truth[c] for c in val.clips]
     results = []
-    for name, config in tqdm(TRACKERS, desc="track", unit="tracker", disable=not progress, dynamic_ncols=True):
-        tracks = [run_tracker(config, detections.tracklets[c], detections.frames[c]) for c in clips]
-        results += [TrackerResult(name, iou, evaluate_tracking(truth, tracks, min_iou=iou)) for iou in MIN_IOUS]
+    runs = [(config, filtered) for filtered in (True, False) for config in configs]
+    for config, filtered in tqdm(runs, desc="track", unit="tracker", disable=not progress, dynamic_ncols=True):
+        tracks = run_tracker(config, val, rule if filtered else None)
+        scores = (hota(truth, tracks), centre_hota(truth, tracks))
+        results += [TrackerResult(config.name, filtered, iou, evaluate_tracking(truth, tracks, min_iou=iou), *scores)
+                    for iou in MIN_IOUS]
     return results
 
 
 def run_study(options: StudyOptions, scenario: Scenario) -> StudyResult:
     """The whole study; writes OUT/<model>/ (checkpoint, log), OUT/late/tracklets/ and returns the numbers."""
     start = time.perf_counter()
+    configs = load_tracker_configs(options.trackers)
     dataset = prepare_dataset(options.scenario, scenario, options.datasets, options.progress)
     detectors, tracked = [], None
     for model in options.models:
@@ -241,11 +296,13 @@ def run_study(options: StudyOptions, scenario: Scenario) -> StudyResult:
         rows, detections = detect_val(detector, config, dataset, options)
         detectors.append(DetectorResult(model, config, reused, fit_s, time.perf_counter() - began, rows))
         if model == TRACKED_MODEL:
-            tracked = detections
+            tracked = (detections, clip_set(detect_split(detector, config, dataset, "train", options)))
             (options.out / model / "tracklets").mkdir(parents=True, exist_ok=True)
             for clip, clip_rows in detections.tracklets.items():
                 write_tracklets(options.out / model / "tracklets" / f"{clip}.npz", clip_rows)
     began = time.perf_counter()
-    trackers = track(tracked, options.progress)
+    val, train = tracked
+    choice = choose_tracklet_filter(train, val, configs, options.progress)
+    trackers = track(val, configs, choice.chosen, options.progress)
     now = time.perf_counter()
-    return StudyResult(dataset, detectors, trackers, now - began, now - start, options.device.type)
+    return StudyResult(dataset, detectors, trackers, choice, now - began, now - start, options.device.type)

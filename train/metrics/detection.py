@@ -1,13 +1,21 @@
 """KITTI-style average precision of 3D boxes, in bird's-eye view (BEV) and 3D, on exact rotated IoU.
 
-Per frame, detections in descending score are matched greedily, each to the still unmatched
-ground-truth box of highest IoU (train.geometry: exact rotated BEV or 3D IoU) if that IoU is at
-least the threshold (0.5): a true positive, else a false positive. Over all frames, detections are
-ranked by score to give precision and recall; the interpolated precision at recall r is the
-largest precision at any recall >= r (0 if recall never reaches r). AP is the mean interpolated
-precision over KITTI's recall points: 40 (r = 1/40, ..., 1; KITTI since 2019) or 11 (r = 0, 0.1,
-..., 1; the original devkit), in percent. There are no difficulty levels or DontCare regions.
-With fewer than about 40 ground-truth boxes AP moves in large steps.
+Per frame, detections in descending score are matched greedily, each to the still unmatched ground-
+truth box of highest IoU (train.geometry: exact rotated BEV or 3D IoU) if that IoU is at least the
+threshold (0.5): a true positive, else a false positive. AP follows KITTI's official evaluation
+(kitti_object_eval_python, OpenPCDet's): score thresholds at the recall levels 0, 1/40, ..., 1 are
+taken from the true positives' scores, the last true positive's always among them, so the level
+nearest the maximum recall is credited even where the recall stops between two levels; precision at
+each threshold is that of the detections scoring at least it, interpolated as the best at that
+threshold or any lower one. R40 averages levels 1/40..1 (KITTI since 2019), R11 levels 0, 0.1, ...,
+1 (the original devkit), in percent. Labelled boxes may be marked ignored (e.g. without points): a
+detection matched to one is neither a true nor a false positive, as KITTI does with the boxes
+outside a difficulty level. Beside IoU, a pitch-plane centre distance (`centre`, a threshold in
+metres) can decide a match. There are no DontCare regions; the official code keeps a pair at IoU >
+0.5 where this one keeps IoU >= 0.5, and it matches each ground-truth box to a detection in its own
+order: equal results wherever each detection overlaps one box. As in the official code, few ground-
+truth boxes make AP coarse (a perfect detector of 40 boxes reads 97.5 at R40: one threshold is spent
+on level 0).
 """
 
 from __future__ import annotations
@@ -19,9 +27,23 @@ import numpy as np
 from numpy.typing import NDArray
 
 from train.geometry import bev_iou, iou_3d
+from train.metrics.recall_levels import level_thresholds
 
-IOU_FUNCTIONS: dict[str, Callable[[NDArray, NDArray], NDArray[np.float64]]] = {"bev": bev_iou, "3d": iou_3d}
+
+
+def centre_closeness(a: NDArray, b: NDArray) -> NDArray[np.float64]:
+    """(P, Q) minus the BEV (pitch-plane) distance in metres of the centres of boxes a (P, 7) and b (Q, 7)."""
+    a, b = np.asarray(a, np.float64).reshape(-1, 7), np.asarray(b, np.float64).reshape(-1, 7)
+    return -np.linalg.norm(a[:, None, :2] - b[None, :, :2], axis=-1)
+
+
+# Similarity of detected and labelled boxes; a pair matches at or above the threshold (for
+# "centre": a distance in metres, matched at or below it).
+IOU_FUNCTIONS: dict[str, Callable[[NDArray, NDArray], NDArray[np.float64]]] = {
+    "bev": bev_iou, "3d": iou_3d, "centre": centre_closeness,
+}
 RECALL_POINTS = (40, 11)
+SAMPLE_LEVELS = 40  # thresholds at recall 0, 1/40, ..., 1; R11 reads every fourth
 
 
 @dataclass(frozen=True)
@@ -31,45 +53,69 @@ class FrameBoxes:
     boxes: NDArray[np.float32]  # (N, 7) detected
     scores: NDArray[np.float32]  # (N,)
     truth: NDArray[np.float32]  # (G, 7) labelled
+    ignore: NDArray[np.bool_] | None = None  # (G,) labelled boxes that count neither way (a detection on one is dropped)
+
+    @property
+    def counted_truth(self) -> int:
+        return len(self.truth) if self.ignore is None else int(np.count_nonzero(~self.ignore))
+
+
+def _match(frame: FrameBoxes, iou_kind: str, threshold: float) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """(N,) true positives and (N,) detections matched to an ignored box, in the input order."""
+    tp, dropped = np.zeros(len(frame.boxes), bool), np.zeros(len(frame.boxes), bool)
+    if len(frame.boxes) == 0 or len(frame.truth) == 0:
+        return tp, dropped
+    similarity = IOU_FUNCTIONS[iou_kind](frame.boxes, frame.truth)
+    if iou_kind == "centre":
+        threshold = -threshold
+    ignore = np.zeros(len(frame.truth), bool) if frame.ignore is None else frame.ignore
+    taken = np.zeros(len(frame.truth), bool)
+    for i in np.argsort(-frame.scores, kind="stable"):
+        free = np.where(taken, -np.inf, similarity[i])
+        best = int(free.argmax())
+        if free[best] >= threshold:
+            taken[best] = True
+            tp[i], dropped[i] = not ignore[best], ignore[best]
+    return tp, dropped
 
 
 def match_frame(frame: FrameBoxes, iou_kind: str, threshold: float) -> NDArray[np.bool_]:
     """(N,) True for each detection that is a true positive, in the input order."""
-    tp = np.zeros(len(frame.boxes), bool)
-    if len(frame.boxes) == 0 or len(frame.truth) == 0:
-        return tp
-    iou = IOU_FUNCTIONS[iou_kind](frame.boxes, frame.truth)
-    taken = np.zeros(len(frame.truth), bool)
-    for i in np.argsort(-frame.scores, kind="stable"):
-        free = np.where(taken, -1.0, iou[i])
-        best = int(free.argmax())
-        if free[best] >= threshold:
-            tp[i], taken[best] = True, True
-    return tp
+    return _match(frame, iou_kind, threshold)[0]
 
 
 def average_precision(scores: NDArray[np.float32], tp: NDArray[np.bool_], num_truth: int, recall_points: int) -> float:
-    """AP in percent from all detections' scores and true-positive flags and the ground-truth count."""
+    """AP in percent from all detections' scores and true-positive flags and the ground-truth count.
+
+    KITTI's rule (kitti_object_eval_python, as OpenPCDet runs it): score thresholds at the 41 recall
+    levels 0, 1/40, ..., 1 from the true positives' scores (train.metrics.recall_levels, the last true
+    positive's score always among them); at each, precision of the detections scoring at least
+    it, then the best precision at that threshold or a lower one. R40 averages levels 1/40..1, R11
+    levels 0, 0.1, ..., 1; levels past the last threshold add 0.
+    """
     if recall_points not in RECALL_POINTS:
         raise ValueError(f"recall_points must be one of {RECALL_POINTS}, got {recall_points}")
     if num_truth == 0:
         return float("nan")
-    if len(scores) == 0:
+    scores, tp = np.asarray(scores, np.float64), np.asarray(tp, bool)
+    thresholds = np.array([s for s, _ in level_thresholds(scores[tp], num_truth, SAMPLE_LEVELS)][: SAMPLE_LEVELS + 1])
+    if len(thresholds) == 0:
         return 0.0
     order = np.argsort(-scores, kind="stable")
     hits = np.cumsum(tp[order])
-    recall = hits / num_truth
-    precision = hits / np.arange(1, len(order) + 1)
-    best_after = np.maximum.accumulate(precision[::-1])[::-1]  # interpolated: best at this recall or beyond
-    levels = np.linspace(1 / 40, 1, 40) if recall_points == 40 else np.linspace(0, 1, 11)
-    at = np.searchsorted(recall, levels - 1e-12, side="left")  # first rank reaching each level
-    reached = at < len(order)
-    return float(100.0 * np.where(reached, best_after[np.minimum(at, len(order) - 1)], 0.0).mean())
+    kept = np.searchsorted(-scores[order], -thresholds, side="right")  # detections scoring >= each threshold
+    precision = np.zeros(SAMPLE_LEVELS + 1)
+    precision[: len(thresholds)] = np.maximum.accumulate((hits[kept - 1] / kept)[::-1])[::-1]
+    chosen = precision[1:] if recall_points == 40 else precision[:: SAMPLE_LEVELS // 10]
+    return float(100.0 * chosen.mean())
 
 
 def detection_ap(frames: Sequence[FrameBoxes], iou_kind: str, threshold: float = 0.5, recall_points: int = 40) -> float:
-    """AP in percent over frames, with IoU `iou_kind` ('bev' or '3d') at `threshold`."""
-    tps = [match_frame(f, iou_kind, threshold) for f in frames]
-    scores = np.concatenate([f.scores for f in frames]) if frames else np.zeros(0, np.float32)
-    tp = np.concatenate(tps) if tps else np.zeros(0, bool)
-    return average_precision(scores, tp, sum(len(f.truth) for f in frames), recall_points)
+    """AP in percent over frames, with IoU `iou_kind` ('bev' or '3d') at `threshold`, or 'centre' within
+    `threshold` metres; detections on ignored labelled boxes are left out."""
+    matched = [_match(f, iou_kind, threshold) for f in frames]
+    scores = [f.scores[~dropped] for f, (_, dropped) in zip(frames, matched)]
+    tps = [tp[~dropped] for tp, dropped in matched]
+    if not frames:
+        return average_precision(np.zeros(0, np.float32), np.zeros(0, bool), 0, recall_points)
+    return average_precision(np.concatenate(scores), np.concatenate(tps), sum(f.counted_truth for f in frames), recall_points)

@@ -6,11 +6,14 @@ with similarity >= alpha are true positives, DetA = TP / (TP + FN + FP), AssA = 
 positives of TPA / (TPA + FNA + FPA) of their id pair, and HOTA_alpha = sqrt(DetA AssA). Clips are
 combined as TrackEval does (counts summed, AssA and LocA weighted by TP); HOTA, DetA, AssA and LocA
 are the means over alpha.
+
+`centre_hota` is the same with a pitch-plane similarity, as SoccerNet's GS-HOTA scores game states:
+exp(ln(0.05) d^2 / tau^2) for BEV centre distance d, tau = 5 m (1 at d = 0, 0.05 at 5 m).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,6 +24,8 @@ from train.geometry import iou_3d
 from train.metrics.tracking import Clip, TrackedClip
 
 ALPHAS = np.arange(0.05, 0.99, 0.05)
+GS_TOLERANCE_M = 5.0  # SoccerNet GS-HOTA's tau
+Similarity = Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
 _EPS = np.finfo(float).eps
 
 
@@ -50,10 +55,16 @@ def _dense_ids(ids: Sequence[NDArray[np.int64]]) -> tuple[list[NDArray[np.intp]]
     return [inverse[a:b] for a, b in zip(bounds[:-1], bounds[1:])], len(unique)
 
 
-def _clip_counts(gt_clip: Clip, track_clip: TrackedClip) -> _Counts:
+def centre_similarity(a: NDArray[np.float64], b: NDArray[np.float64], tolerance_m: float = GS_TOLERANCE_M) -> NDArray[np.float64]:
+    """(P, Q) exp(ln(0.05) d^2 / tolerance^2) of the BEV centre distance d of boxes a (P, 7) and b (Q, 7)."""
+    gap_sq = np.sum((np.asarray(a)[:, None, :2] - np.asarray(b)[None, :, :2]) ** 2, axis=-1)
+    return np.exp(np.log(0.05) * gap_sq / tolerance_m**2)
+
+
+def _clip_counts(gt_clip: Clip, track_clip: TrackedClip, similarity_of: Similarity) -> _Counts:
     gt_ids, n_gt = _dense_ids([f.ids for f in gt_clip])
     track_ids, n_track = _dense_ids([f.ids for f in track_clip])
-    similarity = [iou_3d(g.boxes, t.boxes) for g, t in zip(gt_clip, track_clip)]
+    similarity = [similarity_of(g.boxes, t.boxes) for g, t in zip(gt_clip, track_clip)]
     potential = np.zeros((n_gt, n_track))
     gt_count, track_count = np.zeros((n_gt, 1)), np.zeros((1, n_track))
     for sim, g, t in zip(similarity, gt_ids, track_ids):
@@ -79,14 +90,19 @@ def _clip_counts(gt_clip: Clip, track_clip: TrackedClip) -> _Counts:
     return _Counts(tp, fn, fp, np.sum(matches * pair_score, axis=(1, 2)), loc)
 
 
-def hota(ground_truth: Sequence[Clip], tracks: Sequence[TrackedClip]) -> Hota:
+def hota(ground_truth: Sequence[Clip], tracks: Sequence[TrackedClip], similarity: Similarity = iou_3d) -> Hota:
     """HOTA and its parts over clips of ground truth and tracker output, frame for frame."""
     if len(ground_truth) != len(tracks) or any(len(g) != len(t) for g, t in zip(ground_truth, tracks)):
         raise ValueError("ground truth and tracks differ in number of clips or frames")
-    counts = [_clip_counts(g, t) for g, t in zip(ground_truth, tracks)]
+    counts = [_clip_counts(g, t, similarity) for g, t in zip(ground_truth, tracks)]
     tp, fn, fp = (sum(getattr(c, name) for c in counts) for name in ("tp", "fn", "fp"))
     assa = sum(c.association for c in counts) / np.maximum(1, tp)
     loca = np.maximum(1e-10, sum(c.similarity for c in counts)) / np.maximum(1e-10, tp)
     deta = tp / np.maximum(1, tp + fn + fp)
     per_alpha = np.sqrt(deta * assa)
     return Hota(float(per_alpha.mean()), float(deta.mean()), float(assa.mean()), float(loca.mean()), per_alpha)
+
+
+def centre_hota(ground_truth: Sequence[Clip], tracks: Sequence[TrackedClip]) -> Hota:
+    """HOTA on the pitch plane: centre distance with GS-HOTA's 5 m Gaussian tolerance, no box shape."""
+    return hota(ground_truth, tracks, centre_similarity)

@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
 from train.geometry import iou_3d
+from train.metrics.recall_levels import level_thresholds
 from train.tracking.types import GroundTruthFrame, TrackedFrame
 
 RECALL_LEVELS = 40
@@ -172,20 +173,9 @@ def _evaluate(clips: list[list[_Frame]], min_iou: float, threshold: float) -> tu
 def recall_thresholds(tp_scores: Sequence[float], n_gt: int, levels: int = RECALL_LEVELS) -> list[tuple[float, float]]:
     """(score threshold, recall level) pairs for levels 1/L, 2/L, ... as far as the scores reach.
 
-    AB3DMOT's getThresholds: walking the true positives' scores from the highest, level k/L takes
-    the first score whose recall is nearer to k/L than the next score's (the last score always
-    stands); level 0 is dropped.
+    AB3DMOT's getThresholds (train.metrics.recall_levels), level 0 dropped.
     """
-    scores = np.sort(np.asarray(tp_scores))[::-1]
-    out, level = [], 0
-    for i, score in enumerate(scores):
-        current = level / levels
-        here, after = (i + 1) / n_gt, (i + 2) / n_gt
-        if i < len(scores) - 1 and after - current < current - here:
-            continue
-        out.append((float(score), current))
-        level += 1
-    return out[1:]
+    return level_thresholds(tp_scores, n_gt, levels)[1:]
 
 
 def evaluate_tracking(

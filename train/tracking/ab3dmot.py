@@ -3,7 +3,7 @@
 Each frame: every track's constant-velocity Kalman filter predicts; the 3D IoU of detections and
 predictions is matched by the Hungarian algorithm, pairs under ``iou_threshold`` (0.01) left
 unmatched; matched filters measure their detection, unmatched detections start tracks. A track is
-output (its filtered box, the last matched score) once it has 3 hits, and while it has missed fewer
+output (its filtered box, the mean score of its matched detections) once it has 3 hits, and while it has missed fewer
 than ``max_age`` (2) consecutive frames; at 2 misses it dies. As in AB3DMOT's code, every track is
 output during the first ``min_hits`` frames of a clip, and hits count all matched frames.
 """

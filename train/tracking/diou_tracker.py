@@ -14,10 +14,12 @@ the weighted sum of their DIoU at t-2 and at t-1. Per frame t, Hungarian matchin
    box (train.tracking.split).
 
 Tracklets still unmatched start new trajectories, output once matched in 3 consecutive frames and
-dropped at their first miss; a confirmed trajectory dies after 6 unmatched frames. A matched
-trajectory takes the tracklet's boxes at t-1 and t as its own (a dying one thus gets real boxes for
-the last frame it was carried through) and outputs the box at t with the tracklet's score; dying
-trajectories output their predicted box with their last score (``output_dying``).
+dropped at their first miss; a confirmed trajectory dies after 6 unmatched frames. When a
+trajectory is confirmed, its first two frames are output too (``backfill``, in
+``TrackedFrame.backfill``): the confirming tracklet's boxes at t-2 and t-1. A matched trajectory
+takes the tracklet's boxes at t-1 and t as its own (a dying one thus gets real boxes for the last
+frame it was carried through) and outputs the box at t; dying trajectories output their predicted
+box (``output_dying``). A trajectory's score is the mean of its matched tracklets' scores.
 
 With ``birth_death`` off, every tracklet is output from its first frame and an unmatched trajectory
 ends at once (no step 2); with ``split`` off, step 4 is skipped: the paper's ablation.
@@ -56,6 +58,7 @@ class DiouTrackerConfig:
     birth_death: bool = True
     split: bool = True
     output_dying: bool = True
+    backfill: bool = True
     split_config: SplitConfig = field(default_factory=SplitConfig)
     kalman: KalmanConfig = PLAYER_KALMAN
 
@@ -104,6 +107,7 @@ class DiouTracker:
             pair, pair_boxes, pair_source = self._split(tracklets, predicted, source)
             measured[pair], matched_scores[pair], matched[pair] = pair_boxes, scores[pair_source], True
 
+        backfill = self._backfill(tracklets, source, matched & ~confirmed, matched_scores) if cfg.backfill else ()
         tracks = end_frame(tracks, predicted, matched, measured, matched_scores, cfg.kalman, self._rules)
         born = np.flatnonzero(~used)
         tracks = append(tracks, new_tracks(boxes[born, 1:], scores[born], self._next_id, cfg.kalman))
@@ -112,7 +116,21 @@ class DiouTracker:
         shown = life_cycle.confirmed(tracks.hits, self._rules)
         if not cfg.output_dying:
             shown &= tracks.misses == 0
-        return TrackedFrame(tracks.boxes[shown, -1], tracks.ids[shown], tracks.scores[shown])
+        return TrackedFrame(tracks.boxes[shown, -1], tracks.ids[shown], tracks.scores[shown], backfill)
+
+    def _backfill(
+        self, tracklets: Tracklets, source: NDArray[np.intp], tentative: NDArray[np.bool_], scores: NDArray[np.float64]
+    ) -> tuple[TrackedFrame, ...]:
+        """Frames t-n..t-1 (n = min(min_hits - 1, 2)) of the trajectories this frame confirms, from the
+        boxes of the tracklet that confirms them, scored with their mean score."""
+        tracks, need = self._tracks, self._rules.min_hits
+        newly = np.flatnonzero(tentative & (tracks.hits + 1 >= need))
+        frames = min(need - 1, _OVERLAP.stop)
+        if not len(newly) or frames < 1:
+            return ()
+        boxes = tracklets.boxes[source[newly], _OVERLAP.stop - frames : _OVERLAP.stop]  # (F, n, 7)
+        mean = (tracks.score_sum[newly] + scores[newly]) / (tracks.hits[newly] + 1)
+        return tuple(TrackedFrame(boxes[:, k], tracks.ids[newly], mean) for k in range(frames))
 
     def _split(
         self, tracklets: Tracklets, predicted: motion_model.KalmanState, source: NDArray[np.intp]

@@ -25,7 +25,12 @@ class TrackTable:
     covariance: NDArray[np.float64]  # (K, 10, 10)
     hits: NDArray[np.int64]  # (K,) matched frames
     misses: NDArray[np.int64]  # (K,) consecutive unmatched frames
-    scores: NDArray[np.float64]  # (K,) score of the last matched detection
+    score_sum: NDArray[np.float64]  # (K,) summed scores of the matched detections
+
+    @property
+    def scores(self) -> NDArray[np.float64]:
+        """(K,) a track's score: the mean of its matched detections' scores."""
+        return self.score_sum / self.hits
 
     @property
     def kalman(self) -> KalmanState:
@@ -48,7 +53,7 @@ def new_tracks(
         covariance=state.covariance,
         hits=np.ones(n, dtype=np.int64),
         misses=np.zeros(n, dtype=np.int64),
-        scores=scores.copy(),
+        score_sum=np.asarray(scores, np.float64).copy(),
     )
 
 
@@ -65,7 +70,7 @@ def end_frame(
 
     Matched tracks (mask) take their measured boxes (K, H, 7) as their recent boxes (a tracklet's
     past boxes replace the older ones) and their scores (K,); the Kalman filter measures the last
-    box. The others add their predicted box.
+    box. The others add their predicted box. Matched scores add to the tracks' score sums.
     """
     state = predicted
     if matched.any():
@@ -83,7 +88,7 @@ def end_frame(
         covariance=state.covariance,
         hits=hits,
         misses=misses,
-        scores=np.where(matched, scores, tracks.scores),
+        score_sum=tracks.score_sum + np.where(matched, scores, 0.0),
     )
     return table.take(life_cycle.survives(hits, misses, rules))
 

@@ -44,11 +44,17 @@ class Tracklets:
 
 @dataclass(frozen=True)
 class TrackedFrame:
-    """A tracker's output for one frame: M boxes with their track ids and scores."""
+    """A tracker's output for one frame: M boxes with their track ids and scores.
+
+    ``backfill``: boxes for frames before this one (oldest first, the last one just before it) of
+    tracks confirmed in this frame, at the frames they were not yet output (train.tracking.clip
+    merges them into those frames).
+    """
 
     boxes: NDArray[np.float64]  # (M, 7)
     ids: NDArray[np.int64]  # (M,), unique in the frame
     scores: NDArray[np.float64]  # (M,)
+    backfill: tuple[TrackedFrame, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "boxes", _array(self.boxes, np.float64, (None, BOX_DIM), "boxes"))

@@ -1,0 +1,113 @@
+"""Trackers as config files (train/configs/tracking/) and the tracklet filter that feeds them."""
+
+import numpy as np
+import pytest
+import yaml
+
+from simgen.errors import UserError
+from train.nms import nms_bev, nms_centre
+from train.study import FILTER_REFERENCE, TRACKER_CONFIGS
+from train.tracking.ab3dmot import Ab3dmot
+from train.tracking.clip import track_clip
+from train.tracking.config import load_tracker_config, load_tracker_configs, make_tracker
+from train.tracking.diou_tracker import DiouTracker, DiouTrackerConfig
+from train.tracking.synthetic import NOISY_DETECTOR, PlayersConfig, make_tracklets, simulate_players
+from train.tracking.types import Tracklets
+from train.tracklet_filter import TrackletFilter, apply_filter, choose_filter, filter_tracklets
+
+PLAYER = np.array([0.0, 0.0, 0.9, 0.6, 0.8, 1.8, 0.0])
+
+
+def test_the_shipped_configs_are_the_papers_table_2_rows():
+    configs = load_tracker_configs(TRACKER_CONFIGS)
+    names = [c.name for c in configs]
+    assert names == ["AB3DMOT", "3D DIoU", "3D DIoU + split", "3D DIoU + birth/death", FILTER_REFERENCE]
+    assert isinstance(make_tracker(configs[0]), Ab3dmot)
+    assert all(isinstance(make_tracker(c), DiouTracker) for c in configs[1:])
+
+
+def test_config_trackers_track_as_the_code_defaults():
+    """The full tracker's file and DiouTrackerConfig() (the paper's values) give the same tracks."""
+    clip = simulate_players(PlayersConfig(n_frames=60), np.random.default_rng(4))
+    tracklets = make_tracklets(clip, NOISY_DETECTOR, np.random.default_rng(5))
+    full = next(c for c in load_tracker_configs(TRACKER_CONFIGS) if c.name == FILTER_REFERENCE)
+    ab3dmot = load_tracker_configs(TRACKER_CONFIGS)[0]
+    for config, reference in ((full, DiouTracker(DiouTrackerConfig())), (ab3dmot, Ab3dmot())):
+        got, want = track_clip(make_tracker(config), tracklets), track_clip(reference, tracklets)
+        for a, b in zip(got, want):
+            np.testing.assert_array_equal(a.ids, b.ids)
+            np.testing.assert_array_equal(a.boxes, b.boxes)
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"split": True}, "'split': needs association.method tracklet_diou"),
+        ({"life_cycle": {"birth_death": True, "backfill": True}}, "'life_cycle.backfill': needs association.method"),
+        ({"life_cycle": {"birth_death": False}}, "'life_cycle.birth_death': AB3DMOT (iou_3d) always has it"),
+        ({"motion_model": "constant_acceleration"}, "'motion_model'"),
+        ({"association": {"method": "iou_3d", "lower_bound": 0.01, "gate": 2}}, "unknown key 'association.gate'"),
+        ({"life_cycle": {"birth_death": True, "min_hits": 0}}, "'life_cycle.min_hits'"),
+    ],
+)
+def test_bad_tracker_configs_are_one_line_errors(tmp_path, change, message):
+    data = yaml.safe_load((TRACKER_CONFIGS / "1_ab3dmot.yaml").read_text())
+    data.update(change)
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(UserError) as error:
+        load_tracker_config(path)
+    assert message in str(error.value) and "\n" not in str(error.value)
+
+
+def test_a_folder_without_configs_or_with_twin_names_is_refused(tmp_path):
+    with pytest.raises(UserError, match="no tracker configs"):
+        load_tracker_configs(tmp_path)
+    for name in ("a.yaml", "b.yaml"):
+        (tmp_path / name).write_text((TRACKER_CONFIGS / "2_diou.yaml").read_text())
+    with pytest.raises(UserError, match="share a name"):
+        load_tracker_configs(tmp_path)
+
+
+def boxes_at(*xs: float) -> np.ndarray:
+    return np.array([PLAYER + [x, 0, 0, 0, 0, 0, 0] for x in xs])
+
+
+def test_centre_nms_and_bev_iou_nms():
+    boxes, scores = boxes_at(0.0, 0.5, 0.9, 3.0), np.array([0.5, 0.9, 0.4, 0.8])
+    # Best first: 0.5 (0.9), 3.0 (0.8); 0.0 and 0.9 are within 0.6 m of 0.5.
+    assert nms_centre(boxes, scores, 0.6, 10).tolist() == [1, 3]
+    assert nms_centre(boxes, scores, 0.3, 10).tolist() == [1, 3, 0, 2]
+    # BEV IoU: 0.6 m long boxes 0.5 m apart overlap (IoU 1/11 > 0.01), 0.4 m apart more.
+    assert nms_bev(boxes, scores, 0.01, 10).tolist() == [1, 3]
+    assert nms_bev(boxes, scores, 0.2, 10).tolist() == [1, 3, 0, 2]
+    assert nms_centre(boxes, scores, 0.6, 1).tolist() == [1]
+
+
+def test_filter_keeps_scores_at_or_above_then_suppresses_on_the_boxes_at_t():
+    tracklets = np.stack([boxes_at(9.0, 9.0, x) for x in (0.0, 0.5, 3.0, 6.0)])  # differ only at t
+    scores = np.array([0.5, 0.9, 0.3, 0.29])
+    assert filter_tracklets(tracklets, scores, TrackletFilter(0.3, "centre", 1.0)).tolist() == [1, 2]
+    assert filter_tracklets(tracklets, scores, TrackletFilter(0.0, "bev_iou", 0.2)).tolist() == [1, 0, 2, 3]
+    assert len(filter_tracklets(tracklets, scores, TrackletFilter(0.95, "centre", 1.0))) == 0
+    assert TrackletFilter(0.3, "centre", 1.0).label == "score >= 0.3, NMS centres < 1 m"
+
+
+def test_choose_filter_takes_the_best_samota_on_the_clips_given():
+    """A false twin 2 m from each player, scored as high: a tight BEV NMS keeps it, centre NMS at 2.5 m
+    removes it, at 20 m it removes players too."""
+    clip = simulate_players(PlayersConfig(n_players=8, n_frames=40, meetings=0, crossings=0), np.random.default_rng(2))
+    frames = []
+    for f in range(40):
+        past = clip.boxes[[max(f - 2, 0), max(f - 1, 0), f]].transpose(1, 0, 2)
+        twin = past + [0, 2.0, 0, 0, 0, 0, 0]
+        frames.append(Tracklets(np.concatenate([past, twin]), np.full(16, 0.9)))
+    reference = load_tracker_configs(TRACKER_CONFIGS)[-1]
+    grid = [TrackletFilter(0.1, "bev_iou", 0.01), TrackletFilter(0.1, "centre", 2.5), TrackletFilter(0.1, "centre", 20.0)]
+    chosen, scores = choose_filter([frames], [clip.frames()], reference, grid)
+    assert chosen == grid[1]
+    assert scores[0].tracklets_per_frame > 15 and scores[1].tracklets_per_frame <= 8
+    assert scores[1].samota > 0.99 and scores[0].samota < 0.9 and scores[2].samota < 0.9
+    assert len(apply_filter(frames, chosen)[20].scores) <= 8
+    tie = [grid[1], TrackletFilter(0.2, "centre", 2.5)]
+    assert choose_filter([frames], [clip.frames()], reference, tie)[0] == tie[0]  # ties go to the earlier

@@ -1,0 +1,35 @@
+"""A whole clip through an online tracker, with the boxes it back-fills merged into earlier frames."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Protocol
+
+import numpy as np
+
+from train.tracking.types import TrackedFrame, Tracklets
+
+
+class OnlineTracker(Protocol):
+    def step(self, tracklets: Tracklets) -> TrackedFrame: ...
+
+
+def merge(frame: TrackedFrame, more: TrackedFrame) -> TrackedFrame:
+    """One frame's output and more boxes for it (of other tracks)."""
+    return TrackedFrame(
+        np.concatenate([frame.boxes, more.boxes]),
+        np.concatenate([frame.ids, more.ids]),
+        np.concatenate([frame.scores, more.scores]),
+    )
+
+
+def track_clip(tracker: OnlineTracker, frames: Iterable[Tracklets]) -> list[TrackedFrame]:
+    """One output per frame of tracklets; a frame's back-filled boxes go to the frames before it."""
+    out: list[TrackedFrame] = []
+    for tracklets in frames:
+        frame = tracker.step(tracklets)
+        for back, earlier in enumerate(reversed(frame.backfill), start=1):
+            if back <= len(out):
+                out[-back] = merge(out[-back], earlier)
+        out.append(TrackedFrame(frame.boxes, frame.ids, frame.scores))
+    return out
