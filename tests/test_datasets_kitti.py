@@ -60,13 +60,13 @@ def _float32_bev_area(boxes: np.ndarray, distance_m: float) -> np.ndarray:
 
 def test_camera_coordinates_keep_float32_areas_exact_enough():
     """A footprint computed in float32 camera coordinates, as OpenPCDet's IoU kernels do: with the camera near
-    the pitch the median error is under 0.01 % (at worst 0.5 % for a 0.2 m box); 1000 m away, over 0.1 %."""
+    the pitch the median error is under 0.02 % (at worst 1 % for a 0.2 m box); 1000 m away, over 0.1 %."""
     rng = np.random.default_rng(2)
     boxes = _boxes(rng, 500, 1.8).astype(np.float64)
     exact = boxes[:, 3] * boxes[:, 4]
     near = np.abs(_float32_bev_area(boxes, camera.CAMERA_DISTANCE_M) - exact) / exact
     far = np.abs(_float32_bev_area(boxes, 1000.0) - exact) / exact
-    assert np.median(near) < 1e-4 and near.max() < 5e-3
+    assert np.median(near) < 2e-4 and near.max() < 1e-2
     assert np.median(far) > 1e-3
     assert camera.to_camera(camera.corners(boxes).reshape(-1, 3))[:, 2].min() >= camera.NEAR_DEPTH_M - 1.0
 

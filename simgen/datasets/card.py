@@ -74,7 +74,7 @@ def _kitti_layout(tracking: bool, images: bool = False) -> list[str]:
         f"{camera.PRINCIPAL_PX} px, nominal image {camera.IMAGE_SIZE_PX[0]} x {camera.IMAGE_SIZE_PX[1]} px (image files only as placeholders).",
         "`location` is the box's bottom centre in that camera, `h w l` its height, width (across the heading) and",
         "length (along it), `ry = -yaw - pi/2`; `alpha = ry - atan2(x_cam, z_cam)`. The 2D box is the projection of",
-        "the 8 corners with P2 (not clipped): from that far the whole pitch has nearly one scale, and a box",
+        "the 8 corners with P2 (not clipped): a box",
         f"{min_height_m:.2f} m tall or more is at least {camera.MIN_BOX_PX:g} px tall anywhere up to x = {camera.MAX_X_M:g} m,",
         "so KITTI's evaluators (which drop boxes under 25-40 px) keep every humanoid.",
         "`truncated` is 0; `occluded` is 0, or 3 (unknown) for a humanoid with no point on it in that frame.",
