@@ -54,6 +54,9 @@ TRACKERS: tuple[tuple[str, DiouTrackerConfig | None], ...] = (  # None: AB3DMOT
 )
 MIN_IOUS = (0.25, 0.5)  # 3D IoU of a true positive: AB3DMOT's default, and the stricter one
 CONFIGS = Path(__file__).parent / "configs"
+SCENARIOS = Path(__file__).parents[1] / "scenarios"
+# `--preset`: the paper's Tables 1 (all five rows) and 2 at its model size: (configs, (scenario, models) per study).
+PRESETS = {"paper": (CONFIGS / "paper", (("paper_x1.yaml", PAPER_ROWS[1.0]), ("paper_x2.yaml", PAPER_ROWS[2.0])))}
 TRAINED_ON = "trained_on.json"  # beside a study's checkpoint: the dataset and scenario it was fitted on
 GENERATE_STATE = Path(".simgen") / "scenario.json"  # an interrupted `simgen generate` run
 
@@ -157,8 +160,8 @@ def model_config(options: StudyOptions, model: str) -> DetectorConfig:
     if options.seed is not None:
         data["seed"] = options.seed
     config = parse_config(data, f"{path} (with the study's options)")
-    if config.model.fusion != model:
-        raise UserError(f"{path}: is a {config.model.fusion!r} model, the study needs {model!r} there")
+    if config.model.method != model:
+        raise UserError(f"{path}: is a {config.model.method!r} model, the study needs {model!r} there")
     return config
 
 

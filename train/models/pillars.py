@@ -1,8 +1,9 @@
-"""Pillar feature net (PointPillars' simplified PointNet) and the scatter to pseudo-images.
+"""Pillar feature net (PointPillars' simplified PointNet, OpenPCDet's PillarVFE) and the scatter to pseudo-images.
 
 Each point is decorated with its offsets from the mean of its pillar's points and from the
 pillar's centre, goes through Linear + BatchNorm + ReLU, and every pillar keeps the per-channel
-maximum over its points. There is no cap on points or pillars: the scatter is exact.
+maximum over its points. There is no cap on points or pillars: the scatter is exact. Everything
+after the loader (pillar grouping, decoration, pooling, scatter) runs on the model's device.
 """
 
 from __future__ import annotations
@@ -10,23 +11,23 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from train.config import DetectorConfig
+from train.config import DataConfig, PillarEncoderConfig
+from train.models.registry import PILLAR_ENCODERS
 
 
+@PILLAR_ENCODERS.register("pillar_vfe")
 class PillarFeatureNet(nn.Module):
     """Points (P, F) with flat pillar indices -> pseudo-images (canvases, C, rows, columns)."""
 
-    def __init__(self, config: DetectorConfig, point_features: int) -> None:
+    def __init__(self, section: PillarEncoderConfig, data: DataConfig, point_features: int) -> None:
         super().__init__()
-        data = config.data
         self.rows, self.cols = data.grid_size
         self.pillar_m = data.pillar_size_m
         x0, y0, z0, _, _, z1 = data.point_range_m
         self.register_buffer("origin", torch.tensor([x0, y0, 0.5 * (z0 + z1)]), persistent=False)
-        channels = config.model.pillar_channels
-        self.linear = nn.Linear(point_features + 6, channels, bias=False)
-        self.norm = nn.BatchNorm1d(channels, eps=1e-3, momentum=0.1)
-        self.channels = channels
+        self.channels = section.channels
+        self.linear = nn.Linear(point_features + 6, self.channels, bias=False)
+        self.norm = nn.BatchNorm1d(self.channels, eps=1e-3, momentum=0.1)
 
     def forward(self, features: torch.Tensor, pillar: torch.Tensor, canvases: int) -> torch.Tensor:
         cells = self.rows * self.cols
