@@ -123,3 +123,15 @@ def test_anchor_targets():
     # Far from both objects every anchor is a negative.
     far = np.linalg.norm(grid.anchors[:, :2] - anchor[:2], axis=1) > 8
     assert (targets.labels[far] == 0).all()
+
+
+def test_the_data_layer_does_not_import_the_models():
+    """train.data hands samples to the head's target assigner; it never imports train.models (no import cycle)."""
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+
+    code = "import sys, train.data; print(sorted(m for m in sys.modules if m.startswith('train.models')))"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
+    assert done.stdout.strip() == "[]"

@@ -174,3 +174,24 @@ def test_paper_configs_have_the_papers_sizes_and_train_at_tiny_range():
         out = model(batch)
     assert out.deltas.shape == (2, 32 * 32 * 2, 3, 7)
     detection_loss(out.float(), batch.targets, config.loss).total.backward()
+
+
+def test_scaled_inputs_bring_every_decoration_to_unit_size():
+    """`scale_inputs`: absolute x, y (tens of metres) no longer dwarf the pillar offsets (centimetres) and the time channel."""
+    raw = tiny_config("early").model_dump(mode="json")
+    raw["model"]["pillar_encoder"]["scale_inputs"] = True
+    scaled, plain = build_detector(parse_config(raw)).pillar_encoder, build_detector(tiny_config("early")).pillar_encoder
+    seen = {}
+    for name, encoder in (("scaled", scaled), ("plain", plain)):
+        encoder.linear.register_forward_hook(lambda module, args, out, name=name: seen.update({name: args[0]}))
+    rng = np.random.default_rng(3)
+    points = np.column_stack([rng.uniform([-16, -24, -0.1], [16, 8, 2.5], (400, 3)), rng.uniform(0, 1, 400),
+                              rng.integers(-2, 1, 400)]).astype(np.float32)
+    from train.data import pillar_cells
+
+    pillar = torch.from_numpy(pillar_cells(points[:, :3], tiny_config("early")))
+    for encoder in (scaled, plain):
+        encoder(torch.from_numpy(points), pillar, 1)
+    span = seen["scaled"].abs().amax(dim=0)
+    assert (span <= 2.0).all() and (span[8:10] >= 0.4).all(), span  # offsets from a 0.25 m pillar's centre: +-0.5
+    assert seen["plain"].abs().amax(dim=0)[0] > 10 and seen["plain"].abs().amax(dim=0)[8] <= 0.125 + 1e-6

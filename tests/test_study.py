@@ -7,12 +7,15 @@ import io
 from contextlib import redirect_stderr, redirect_stdout
 
 import pytest
+import torch
 import yaml
 from conftest import ROOT
 from detector_support import SMOKE, tiny_config
 
 import simgen.datasets
+from train.checkpoint import load_checkpoint
 from train.cli import main
+from train.fit import fit
 from train.study import TRACKERS
 
 pytestmark = pytest.mark.engine
@@ -43,8 +46,8 @@ def study(tmp_path_factory):
     scenario, configs, datasets, out = root / "tiny.yaml", root / "configs", root / "datasets", root / "out"
     write_scenario(scenario)
     configs.mkdir()
-    for fusion in ("single", "early", "late"):
-        (configs / f"{fusion}.yaml").write_text(yaml.safe_dump(tiny_config(fusion).model_dump(mode="json")))
+    for fusion in ("single", "early", "late"):  # eval_every 1: a learning curve point after each iteration
+        (configs / f"{fusion}.yaml").write_text(yaml.safe_dump(tiny_config(fusion, eval_every=1).model_dump(mode="json")))
     code, stdout, stderr = run_study(scenario, "-o", out, "--datasets", datasets, "--configs", configs,
                                      "--iterations", 2, "--models", "late,single,early", "--quiet")
     assert code == 0, stderr[-2000:]
@@ -69,6 +72,33 @@ def test_table1_has_a_row_per_model_and_the_command(study):
     assert {(r["model"], r["box"]) for r in ap} == boxes
     assert all(0.0 <= float(r["ap"]) <= 100.0 and int(r["truth"]) > 0 and r["iterations"] == "2" for r in ap)
     assert str(out / "table2.md") in stdout
+
+
+def test_each_model_has_a_learning_curve_on_val(study):
+    _, _, _, out, _ = study
+    for model in ("single", "early", "late"):
+        rows = list(csv.DictReader(open(out / model / "learning_curve.csv")))
+        assert [r["iteration"] for r in rows] == ["1", "2"]
+        assert all(0.0 <= float(r["3d_r40"]) <= 100.0 and int(r["truth"]) > 0 for r in rows)
+        assert (out / model / "learning_curve.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    table = list(csv.DictReader(open(out / "table1.csv")))
+    final = next(r for r in table if (r["model"], r["box"], r["iou"], r["recall_points"]) == ("late", "t", "3d", "40"))
+    assert final["ap"] == rows[-1]["3d_r40"]  # the curve's last point is the table's number
+
+
+def test_scoring_val_while_training_leaves_the_weights_alone(study, tmp_path):
+    _, _, datasets, out, _ = study
+    plain = fit(tiny_config("late", iterations=2), str(datasets / NAME), tmp_path, torch.device("cpu"), progress=False)
+    a, b = load_checkpoint(out / "late" / "checkpoint.pt").model, load_checkpoint(plain.checkpoint).model
+    assert all(torch.equal(a[k], b[k]) for k in b)
+
+
+def test_preset_and_scenario_are_exclusive(study):
+    scenario, _, _, _, _ = study
+    code, _, stderr = run_study(scenario, "--preset", "paper", "-o", "unused")
+    assert code == 2 and stderr.count("\n") == 1 and "not both" in stderr
+    code, _, stderr = run_study("-o", "unused")
+    assert code == 2 and stderr.count("\n") == 1 and "give a scenario YAML or --preset" in stderr
 
 
 def test_table2_has_every_tracker_at_both_ious(study):

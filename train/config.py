@@ -64,6 +64,9 @@ class PillarEncoderConfig(_Strict):
 
     name: Literal["pillar_vfe"] = "pillar_vfe"
     channels: int = Field(16, ge=1)  # features per pillar (the pseudo-image's channels)
+    # Point decorations divided by their span (x, y by the range's half-width, z by its half-height,
+    # offsets by the pillar size, the frame offset by 2) so that none dwarfs another before the Linear.
+    scale_inputs: bool = False
 
 
 class Backbone2dConfig(_Strict):
