@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+import shutil
 from contextlib import redirect_stderr, redirect_stdout
 
 import pytest
@@ -91,6 +92,24 @@ def test_scoring_val_while_training_leaves_the_weights_alone(study, tmp_path):
     plain = fit(tiny_config("late", iterations=2), str(datasets / NAME), tmp_path, torch.device("cpu"), progress=False)
     a, b = load_checkpoint(out / "late" / "checkpoint.pt").model, load_checkpoint(plain.checkpoint).model
     assert all(torch.equal(a[k], b[k]) for k in b)
+
+
+def test_a_checkpoint_is_reused_when_only_inference_settings_change(study, tmp_path):
+    scenario, configs, datasets, out, _ = study
+    shutil.copytree(out / "late", tmp_path / "out" / "late")
+    shutil.copytree(configs, tmp_path / "configs")
+    late = yaml.safe_load((configs / "late.yaml").read_text())
+    late["infer"]["score_threshold"], late["train"]["eval_every"] = 0.3, 0
+    (tmp_path / "configs" / "late.yaml").write_text(yaml.safe_dump(late))
+    code, _, stderr = run_study(scenario, "-o", tmp_path / "out", "--datasets", datasets, "--configs", tmp_path / "configs",
+                                "--iterations", 2, "--quiet")
+    assert code == 0, stderr[-2000:]
+    assert "late 2 iterations x batch 2 (checkpoint reused)" in (tmp_path / "out" / "table1.md").read_text()
+    late["train"]["lr"] = 0.001  # this one changes the weights: trained again
+    (tmp_path / "configs" / "late.yaml").write_text(yaml.safe_dump(late))
+    code, _, stderr = run_study(scenario, "-o", tmp_path / "out", "--datasets", datasets, "--configs", tmp_path / "configs",
+                                "--iterations", 2, "--quiet")
+    assert code == 0 and "(checkpoint reused)" not in (tmp_path / "out" / "table1.md").read_text()
 
 
 def test_preset_and_scenario_are_exclusive(study):

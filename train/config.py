@@ -220,6 +220,22 @@ class DetectorConfig(_Strict):
         return self
 
 
+# Training settings that do not change the weights (the loader's draws are seeded per sample, not per process).
+NOT_WEIGHTS_TRAIN = ("workers", "log_every", "checkpoint_every", "eval_every")
+
+
+def same_weights(a: DetectorConfig, b: DetectorConfig) -> bool:
+    """Whether training with `a` and with `b` gives the same weights (they differ at most in `infer` and NOT_WEIGHTS_TRAIN)."""
+
+    def decisive(config: DetectorConfig) -> dict:
+        data = config.model_dump(mode="json")
+        del data["infer"]
+        data["train"] = {k: v for k, v in data["train"].items() if k not in NOT_WEIGHTS_TRAIN}
+        return data
+
+    return decisive(a) == decisive(b)
+
+
 def parse_config(data: object, source: str = "config") -> DetectorConfig:
     """Validate a parsed config; raise `UserError` naming the first bad field."""
     return validate(DetectorConfig, data, source)

@@ -3,7 +3,8 @@
 1. The dataset: `DATASETS/<scenario name>` is reused when its manifest holds the same resolved
    scenario, else made by `simgen generate` in a subprocess (the public interface).
 2. Table 1: each model asked for (`late` always) is trained on the `train` clips (train.fit), or
-   reused from `OUT/<model>/` when that checkpoint has the same config and data, and its boxes at t
+   reused from `OUT/<model>/` when that checkpoint has the same data and a config that gives the same
+   weights (inference settings may differ: train.config.same_weights), and its boxes at t
    are scored on the `val` clips (train.evaluate: AP in BEV and 3D, IoU 0.5).
 3. Table 2: the `late` model's tracklets on the `val` clips go to AB3DMOT and to the 3D DIoU tracker
    with and without birth/death and split; their tracks are scored against the labels (train.metrics).
@@ -29,7 +30,7 @@ from simgen.atomic import atomic_path
 from simgen.errors import UserError
 from simgen.scenario import Scenario, parse_scenario
 from train.checkpoint import load_checkpoint
-from train.config import DetectorConfig, load_config, parse_config
+from train.config import DetectorConfig, load_config, parse_config, same_weights
 from train.data import Sample
 from train.detections import ClipTracklets, clip_tracklets, write_tracklets
 from train.evaluate import ApRow, average_precisions, predict
@@ -177,7 +178,7 @@ def trained_model(options: StudyOptions, model: str, dataset: StudyDataset) -> t
     reused = path.is_file() and marker.is_file() and json.loads(marker.read_text()) == _trained_on(dataset)
     if reused:
         checkpoint = load_checkpoint(path)
-        reused = checkpoint.config == config and checkpoint.iteration == config.train.iterations
+        reused = same_weights(checkpoint.config, config) and checkpoint.iteration == config.train.iterations
     if not reused:
         marker.unlink(missing_ok=True)
         fit(config, str(dataset.path), run, options.device, options.progress)
