@@ -36,7 +36,7 @@ def run_study(*args: object) -> tuple[int, str, str]:
 def write_scenario(path, **changes) -> None:
     """The smoke scenario cut to 2 clips of 12 frames (the split puts the last one in val)."""
     data = yaml.safe_load(SMOKE.read_text())
-    data.update(name=NAME, scan={"frames": 12}, dataset={"clips": 2}, **changes)
+    data.update({"name": NAME, "scan": {"frames": 12}, "dataset": {"clips": 2}, **changes})
     path.write_text(yaml.safe_dump(data))
 
 
@@ -110,6 +110,27 @@ def test_a_checkpoint_is_reused_when_only_inference_settings_change(study, tmp_p
     code, _, stderr = run_study(scenario, "-o", tmp_path / "out", "--datasets", datasets, "--configs", tmp_path / "configs",
                                 "--iterations", 2, "--quiet")
     assert code == 0 and "(checkpoint reused)" not in (tmp_path / "out" / "table1.md").read_text()
+
+
+def test_the_paper_preset_runs_table1s_five_rows_and_table2(study, tmp_path, monkeypatch):
+    """`--preset paper` at tiny size: the paper's configs and scenarios swapped for tiny ones, same loop."""
+    import train.cli
+
+    scenario, configs, datasets, _, _ = study
+    folder = tmp_path / "scenarios"
+    folder.mkdir()
+    shutil.copy(scenario, folder / "tiny.yaml")
+    write_scenario(folder / "tiny_x2.yaml", name=NAME + "_x2", scan={"frames": 12, "density": 2})
+    monkeypatch.setitem(train.cli.PRESETS, "paper", (configs, (("tiny.yaml", ("single", "early", "late")),
+                                                               ("tiny_x2.yaml", ("single", "late")))))
+    monkeypatch.setattr(train.cli, "SCENARIOS", folder)
+    code, stdout, stderr = run_study("--preset", "paper", "-o", tmp_path / "out", "--datasets", datasets, "--iterations", 1,
+                                     "--quiet")
+    assert code == 0, stderr[-2000:]
+    for name, methods in (("tiny", METHODS), ("tiny_x2", ("Single Frame (x2)", "Late Fusion (x2)"))):
+        text = (tmp_path / "out" / name / "table1.md").read_text()
+        assert [line.split(" | ")[0][2:] for line in text.splitlines() if line.startswith("| ") and " (x" in line.split(" | ")[0]] == list(methods)
+        assert (tmp_path / "out" / name / "table2.md").is_file()
 
 
 def test_preset_and_scenario_are_exclusive(study):
