@@ -43,7 +43,8 @@ def make_dataset(folder: Path) -> str:
 
 def loading_rate(dataset: str, samples: int) -> float:
     """Samples/s of reading and encoding alone (the `late` inputs: three frames)."""
-    data = SampleSet(dataset, None, load_config(ROOT / "train" / "configs" / "late.yaml"))
+    config = load_config(ROOT / "train" / "configs" / "late.yaml")
+    data = SampleSet(dataset, None, config, assign=build_detector(config).head.assigner)
     data[0]
     start = time.perf_counter()
     for i in range(samples):
@@ -54,14 +55,14 @@ def loading_rate(dataset: str, samples: int) -> float:
 def training_rate(name: str, dataset: str, steps: int) -> float:
     config = load_config(ROOT / "train" / "configs" / f"{name}.yaml")
     batch = config.train.batch_size
-    data = SampleSet(dataset, None, config, draws=(steps + 1) * batch)
     model = build_detector(config).train()
+    data = SampleSet(dataset, None, config, draws=(steps + 1) * batch, assign=model.head.assigner)
     optimizer = torch.optim.AdamW(model.parameters(), lr=config.train.lr)
-    batches = loader(data, batch, 0)
+    batches = loader(data, batch, 0, model.head.assigner.collate)
 
     def step() -> None:
         b = next(batches)
-        loss = detection_loss(model(b), b, config.loss).total
+        loss = detection_loss(model(b), b.targets, config.loss).total
         optimizer.zero_grad()
         loss.backward()
         optimizer.step()
@@ -77,12 +78,11 @@ def inference_rate(name: str, dataset: str, frames: int) -> float:
     config = load_config(ROOT / "train" / "configs" / f"{name}.yaml")
     data = SampleSet(dataset, None, config)
     rows, cols = config.data.grid_size
-    anchors = torch.from_numpy(data.grid.anchors)
     model = build_detector(config).eval()
 
     def one(i: int) -> None:
-        batch = collate([data[i % len(data)]], config.model.canvases, rows * cols, len(data.grid))
-        postprocess(model(batch), anchors, config)
+        batch = collate([data[i % len(data)]], config.model.fusion.canvases, rows * cols)
+        postprocess(model(batch), model.head.anchors, config)
 
     with torch.no_grad():
         one(0)

@@ -13,6 +13,7 @@ SMOKE = ROOT / "scenarios" / "smoke.yaml"
 # The touchline sensor's side of the centre circle: 128 x 128 pillars, ~10 players.
 TINY_RANGE_M = [-16.0, -24.0, -0.1, 16.0, 8.0, 2.5]
 _made: dict[int, Path] = {}
+FUSION_NAMES = {"single": "none", "early": "early", "late": "late"}  # the paper's method -> model.fusion.name
 
 
 def smoke_dataset(root: Path, frames: int) -> Path:
@@ -26,16 +27,17 @@ def smoke_dataset(root: Path, frames: int) -> Path:
 
 
 def tiny_config(fusion: str, channels: int = 8, **train: object) -> DetectorConfig:
-    """A CPU-light detector: small grid, one-layer blocks of `channels` (then twice that), no augmentation."""
+    """A CPU-light detector for a method (single, early, late): small grid, one-layer blocks of `channels`
+    (then twice that), no augmentation."""
     return parse_config(
         {
             "name": f"tiny_{fusion}",
             "data": {"point_range_m": TINY_RANGE_M, "augment": {"rotation_rad": 0.0, "flip_x": False, "scale": [1.0, 1.0]}},
             "model": {
-                "fusion": fusion,
-                "tracklet_boxes": 3 if fusion == "late" else 1,
-                "pillar_channels": channels,
-                "backbone": {"layers": [1, 2, 2], "channels": [channels, channels, 2 * channels], "upsample_channels": [channels] * 3},
+                "pillar_encoder": {"channels": channels},
+                "backbone_2d": {"layers": [1, 2, 2], "channels": [channels, channels, 2 * channels], "upsample_channels": [channels] * 3},
+                "fusion": {"name": FUSION_NAMES[fusion]},
+                "head": {"tracklet_boxes": 3 if fusion == "late" else 1},
             },
             "train": {"workers": 0, "log_every": 1, **train},
         }

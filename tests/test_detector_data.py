@@ -1,4 +1,4 @@
-"""train.data and train.models.anchors: track matching, one augmentation for all frames, crop, pillars, targets."""
+"""train.data and the head's target assigner: track matching, one augmentation for all frames, crop, pillars, targets."""
 
 import math
 
@@ -9,8 +9,8 @@ from detector_support import smoke_dataset, tiny_config
 
 import simgen.datasets
 from train.data import Sample, augment, crop, load_sample, model_points, pillar_cells
-from train.models.anchors import AnchorGrid
 from train.models.box_coder import apply_direction, decode, direction_bin, encode
+from train.models.detector import build_detector
 
 
 @pytest.fixture(scope="module")
@@ -109,12 +109,13 @@ def test_box_coder_round_trip_and_direction():
 
 def test_anchor_targets():
     config = tiny_config("late")
-    grid = AnchorGrid(config)
+    assigner = build_detector(config).head.assigner
+    grid = assigner.grid
     assert len(grid) == 64 * 64 * 2 and grid.cell_m == 0.5
     anchor = grid.anchors[1000]
     tracklet = np.stack([anchor + [-0.2, 0, 0, 0, 0, 0, 0], anchor + [-0.1, 0, 0, 0, 0, 0, 0], anchor])[None]
     nearby = np.stack([tracklet[0, :, :] + [3, 3, 0, 0, 0, 0, 0]])  # a second object, 4 m away
-    targets = grid.assign(np.concatenate([tracklet, nearby]).astype(np.float32), np.ones((2, 3), bool))
+    targets = assigner(np.concatenate([tracklet, nearby]).astype(np.float32), np.ones((2, 3), bool))
     assert targets.labels[1000] == 1 and 1000 in targets.positives
     assert set(np.unique(targets.labels)) <= {-1, 0, 1} and (targets.labels == 1).sum() == len(targets.positives)
     row = targets.positives.tolist().index(1000)
@@ -123,3 +124,15 @@ def test_anchor_targets():
     # Far from both objects every anchor is a negative.
     far = np.linalg.norm(grid.anchors[:, :2] - anchor[:2], axis=1) > 8
     assert (targets.labels[far] == 0).all()
+
+
+def test_the_data_layer_does_not_import_the_models():
+    """train.data hands samples to the head's target assigner; it never imports train.models (no import cycle)."""
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+
+    code = "import sys, train.data; print(sorted(m for m in sys.modules if m.startswith('train.models')))"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
+    assert done.stdout.strip() == "[]"

@@ -11,43 +11,43 @@ from train.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from train.config import load_config, parse_config
 from train.data import Encoded, Sample, collate, encode_sample
 from train.losses import detection_loss
-from train.models.anchors import AnchorGrid
 from train.models.detector import build_detector
 from train.models.fusion import LateFusion
 from train.nms import nms_bev
 from train.postprocess import postprocess
 
 
-def _batch(config, samples=2):
+def _batch(config, model, samples=2):
     rng = np.random.default_rng(0)
-    grid = AnchorGrid(config)
     items: list[Encoded] = []
     for _ in range(samples):
         points = tuple(
             np.column_stack([rng.uniform([-16, -24, 0], [16, 8, 2], (500, 3)), rng.uniform(0, 1, 500)]).astype(np.float32)
-            for _ in range(config.model.input_frames)
+            for _ in range(config.model.fusion.input_frames)
         )
         boxes = np.tile(np.array([1.0, -5.0, 0.9, 0.8, 0.6, 1.8, 0.3], np.float32), (1, 3, 1))
-        items.append(encode_sample(Sample("c", 2, points, boxes, np.ones((1, 3), bool), np.arange(1)), config, grid))
+        sample = Sample("c", 2, points, boxes, np.ones((1, 3), bool), np.arange(1))
+        items.append(encode_sample(sample, config, model.head.assigner))
     rows, cols = config.data.grid_size
-    return collate(items, config.model.canvases, rows * cols, len(grid)), grid
+    return collate(items, config.model.fusion.canvases, rows * cols, model.head.assigner.collate)
 
 
 @pytest.mark.parametrize("fusion, boxes", [("single", 1), ("early", 1), ("late", 3)])
 def test_forward_loss_and_detections(fusion, boxes):
     config = tiny_config(fusion)
-    batch, grid = _batch(config)
     model = build_detector(config)
+    batch = _batch(config, model)
+    anchors = len(model.head.anchors)
     out = model(batch)
-    assert out.scores.shape == (2, len(grid)) and out.deltas.shape == (2, len(grid), boxes, 7)
-    assert out.direction.shape == (2, len(grid), 2)
-    terms = detection_loss(out, batch, config.loss)
+    assert out.scores.shape == (2, anchors) and out.deltas.shape == (2, anchors, boxes, 7)
+    assert out.direction.shape == (2, anchors, 2)
+    terms = detection_loss(out, batch.targets, config.loss)
     assert torch.isfinite(terms.total) and len(terms.loc) == boxes
     terms.total.backward()
     assert all(p.grad is not None for p in model.parameters() if p.requires_grad)
     model.eval()
     with torch.no_grad():
-        found = postprocess(model(batch), torch.from_numpy(grid.anchors), config)
+        found = postprocess(model(batch), model.head.anchors, config)
     assert len(found) == 2 and found[0].boxes.shape[1:] == (boxes, 7)
 
 
@@ -71,17 +71,22 @@ def test_nms_keeps_the_best_of_overlapping_boxes():
 
 
 def test_configs_load_and_reject_bad_keys(tmp_path):
-    for name, fusion in (("single", "single"), ("early", "early"), ("late", "late")):
-        assert load_config(f"train/configs/{name}.yaml").model.fusion == fusion
+    for name, fusion in (("single", "none"), ("early", "early"), ("late", "late")):
+        config = load_config(f"train/configs/{name}.yaml")
+        assert config.model.fusion.name == fusion and config.model.method == name
     raw = yaml.safe_load(open("train/configs/late.yaml"))
-    raw["model"]["backbone"]["colour"] = 3
-    with pytest.raises(UserError, match=r"unknown key 'model.backbone.colour'"):
+    raw["model"]["backbone_2d"]["colour"] = 3
+    with pytest.raises(UserError, match=r"unknown key 'model.backbone_2d.colour'"):
+        parse_config(raw)
+    raw = yaml.safe_load(open("train/configs/late.yaml"))
+    raw["model"]["fusion"]["name"] = "middle"
+    with pytest.raises(UserError, match=r"'model.fusion': .*'none', 'early', 'late'"):
         parse_config(raw)
     raw = yaml.safe_load(open("train/configs/single.yaml"))
-    raw["model"]["tracklet_boxes"] = 3
+    raw["model"]["head"]["tracklet_boxes"] = 3
     with pytest.raises(UserError, match="single-frame model regresses 1 box"):
         parse_config(raw)
-    raw["model"]["tracklet_boxes"], raw["data"]["pillar_size_m"] = 1, 0.3
+    raw["model"]["head"]["tracklet_boxes"], raw["data"]["pillar_size_m"] = 1, 0.3
     with pytest.raises(UserError, match="whole multiples"):
         parse_config(raw)
     with pytest.raises(UserError, match="no such config file"):
@@ -103,3 +108,90 @@ def test_checkpoint_round_trip_and_foreign_files(tmp_path):
         with pytest.raises(UserError) as error:
             load_checkpoint(tmp_path / name)
         assert "\n" not in str(error.value)
+
+
+def test_every_part_name_a_config_allows_has_a_builder():
+    from typing import get_args
+
+    from train.config import Backbone2dConfig, BoxCoderConfig, HeadConfig, PillarEncoderConfig
+    from train.models.registry import BACKBONES_2D, BOX_CODERS, FUSIONS, HEADS, PILLAR_ENCODERS
+
+    def names(section) -> set[str]:
+        return set(get_args(section.model_fields["name"].annotation))
+
+    fusions = set(load_config("train/configs/late.yaml").model_json_schema()["$defs"]["ModelConfig"]["properties"]["fusion"]
+                  ["discriminator"]["mapping"])
+    assert fusions == set(FUSIONS.builders) == {"none", "early", "late"}
+    assert names(PillarEncoderConfig) == set(PILLAR_ENCODERS.builders)
+    assert names(Backbone2dConfig) == set(BACKBONES_2D.builders)
+    assert names(HeadConfig) == set(HEADS.builders)
+    assert names(BoxCoderConfig) == set(BOX_CODERS.builders)
+
+
+def test_the_detector_is_assembled_from_the_parts_its_config_names():
+    late, single = build_detector(tiny_config("late")), build_detector(tiny_config("single"))
+    assert isinstance(late.fusion, LateFusion) and not isinstance(single.fusion, LateFusion)
+    assert late.pillar_encoder.linear.in_features == single.pillar_encoder.linear.in_features == 4 + 6
+    assert build_detector(tiny_config("early")).pillar_encoder.linear.in_features == 5 + 6  # the time channel
+    assert late.head.box.out_channels == 2 * 3 * 7 and single.head.box.out_channels == 2 * 1 * 7
+
+
+@pytest.mark.parametrize("fusion", ["single", "late"])
+def test_bf16_autocast_path_runs_on_cpu(fusion):
+    """The CUDA training step's mixed precision (bfloat16 autocast, float32 loss) on CPU at tiny size."""
+    from train.fit import autocast
+
+    config = tiny_config(fusion)
+    model = build_detector(config)
+    batch = _batch(config, model)
+    with autocast(torch.device("cpu"), "on"):
+        out = model(batch)
+    assert out.scores.dtype == torch.bfloat16
+    terms = detection_loss(out.float(), batch.targets, config.loss)
+    assert terms.total.dtype == torch.float32 and torch.isfinite(terms.total)
+    terms.total.backward()
+    assert all(p.grad is not None and p.grad.dtype == torch.float32 for p in model.parameters())
+    with autocast(torch.device("cpu"), "auto"):  # auto: CUDA only
+        assert model(batch).scores.dtype == torch.float32
+
+
+def test_paper_configs_have_the_papers_sizes_and_train_at_tiny_range():
+    for name, fusion in (("single", "none"), ("early", "early"), ("late", "late")):
+        config = load_config(f"train/configs/paper/{name}.yaml")
+        model, backbone = config.model, config.model.backbone_2d
+        assert model.fusion.name == fusion and model.pillar_encoder.channels == 64
+        assert backbone.channels == (64, 128, 256) and backbone.strides[0] == 1 and backbone.output_stride == 1
+        assert config.data.pillar_size_m * backbone.output_stride == 0.25 and len(model.head.anchor.yaws_rad) == 2
+        assert config.train.bf16 == "auto" and config.train.workers > 1
+    raw = load_config("train/configs/paper/late.yaml").model_dump(mode="json")
+    raw["data"]["point_range_m"] = [-4.0, -4.0, -0.1, 4.0, 4.0, 2.5]  # 32 x 32 pillars
+    config = parse_config(raw)
+    model = build_detector(config)
+    batch = _batch(config, model)
+    from train.fit import autocast
+
+    with autocast(torch.device("cpu"), "on"):
+        out = model(batch)
+    assert out.deltas.shape == (2, 32 * 32 * 2, 3, 7)
+    detection_loss(out.float(), batch.targets, config.loss).total.backward()
+
+
+def test_scaled_inputs_bring_every_decoration_to_unit_size():
+    """`scale_inputs`: absolute x, y (tens of metres) no longer dwarf the pillar offsets (centimetres) and the time channel."""
+    raw = tiny_config("early").model_dump(mode="json")
+    raw["model"]["pillar_encoder"]["scale_inputs"] = True
+    scaled, plain = build_detector(parse_config(raw)).pillar_encoder, build_detector(tiny_config("early")).pillar_encoder
+    seen = {}
+    for name, encoder in (("scaled", scaled), ("plain", plain)):
+        encoder.linear.register_forward_hook(lambda module, args, out, name=name: seen.update({name: args[0]}))
+    rng = np.random.default_rng(3)
+    points = np.column_stack([rng.uniform([-16, -24, -0.1], [16, 8, 2.5], (400, 3)), rng.uniform(0, 1, 400),
+                              rng.integers(-2, 1, 400)]).astype(np.float32)
+    from train.data import pillar_cells
+
+    pillar = torch.from_numpy(pillar_cells(points[:, :3], tiny_config("early")))
+    for encoder in (scaled, plain):
+        encoder(torch.from_numpy(points), pillar, 1)
+    span = seen["scaled"].abs().amax(dim=0)
+    assert (span <= 2.0).all() and (span[8:10] >= 0.4).all(), span  # offsets from a 0.25 m pillar's centre: +-0.5
+    assert seen["plain"].abs().amax(dim=0)[0] > 10 and seen["plain"].abs().amax(dim=0)[8] <= 0.125 + 1e-6

@@ -4,15 +4,19 @@ from __future__ import annotations
 
 import csv
 import io
+import shutil
 from contextlib import redirect_stderr, redirect_stdout
 
 import pytest
+import torch
 import yaml
 from conftest import ROOT
 from detector_support import SMOKE, tiny_config
 
 import simgen.datasets
+from train.checkpoint import load_checkpoint
 from train.cli import main
+from train.fit import fit
 from train.study import TRACKER_CONFIGS
 from train.tracking.config import load_tracker_configs
 
@@ -33,7 +37,7 @@ def run_study(*args: object) -> tuple[int, str, str]:
 def write_scenario(path, **changes) -> None:
     """The smoke scenario cut to 2 clips of 12 frames (the split puts the last one in val)."""
     data = yaml.safe_load(SMOKE.read_text())
-    data.update(name=NAME, scan={"frames": 12}, dataset={"clips": 2}, **changes)
+    data.update({"name": NAME, "scan": {"frames": 12}, "dataset": {"clips": 2}, **changes})
     path.write_text(yaml.safe_dump(data))
 
 
@@ -44,8 +48,8 @@ def study(tmp_path_factory):
     scenario, configs, datasets, out = root / "tiny.yaml", root / "configs", root / "datasets", root / "out"
     write_scenario(scenario)
     configs.mkdir()
-    for fusion in ("single", "early", "late"):
-        (configs / f"{fusion}.yaml").write_text(yaml.safe_dump(tiny_config(fusion).model_dump(mode="json")))
+    for fusion in ("single", "early", "late"):  # eval_every 1: a learning curve point after each iteration
+        (configs / f"{fusion}.yaml").write_text(yaml.safe_dump(tiny_config(fusion, eval_every=1).model_dump(mode="json")))
     code, stdout, stderr = run_study(scenario, "-o", out, "--datasets", datasets, "--configs", configs,
                                      "--iterations", 2, "--models", "late,single,early", "--quiet")
     assert code == 0, stderr[-2000:]
@@ -75,6 +79,72 @@ def test_table1_has_a_row_per_model_and_the_command(study):
     }
     assert all(0.0 <= float(r["ap"]) <= 100.0 and int(r["truth"]) > 0 and r["iterations"] == "2" for r in ap)
     assert str(out / "table2.md") in stdout
+
+
+def test_each_model_has_a_learning_curve_on_val(study):
+    _, _, _, out, _ = study
+    for model in ("single", "early", "late"):
+        rows = list(csv.DictReader(open(out / model / "learning_curve.csv")))
+        assert [r["iteration"] for r in rows] == ["1", "2"]
+        assert all(0.0 <= float(r["3d_r40"]) <= 100.0 and int(r["truth"]) > 0 for r in rows)
+        assert (out / model / "learning_curve.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    table = list(csv.DictReader(open(out / "table1.csv")))
+    final = next(r for r in table if (r["model"], r["box"], r["iou"], r["recall_points"]) == ("late", "t", "3d", "40"))
+    assert final["ap"] == rows[-1]["3d_r40"]  # the curve's last point is the table's number
+
+
+def test_scoring_val_while_training_leaves_the_weights_alone(study, tmp_path):
+    _, _, datasets, out, _ = study
+    plain = fit(tiny_config("late", iterations=2), str(datasets / NAME), tmp_path, torch.device("cpu"), progress=False)
+    a, b = load_checkpoint(out / "late" / "checkpoint.pt").model, load_checkpoint(plain.checkpoint).model
+    assert all(torch.equal(a[k], b[k]) for k in b)
+
+
+def test_a_checkpoint_is_reused_when_only_inference_settings_change(study, tmp_path):
+    scenario, configs, datasets, out, _ = study
+    shutil.copytree(out / "late", tmp_path / "out" / "late")
+    shutil.copytree(configs, tmp_path / "configs")
+    late = yaml.safe_load((configs / "late.yaml").read_text())
+    late["infer"]["score_threshold"], late["train"]["eval_every"] = 0.3, 0
+    (tmp_path / "configs" / "late.yaml").write_text(yaml.safe_dump(late))
+    code, _, stderr = run_study(scenario, "-o", tmp_path / "out", "--datasets", datasets, "--configs", tmp_path / "configs",
+                                "--iterations", 2, "--quiet")
+    assert code == 0, stderr[-2000:]
+    assert "late 2 iterations x batch 2 (checkpoint reused)" in (tmp_path / "out" / "table1.md").read_text()
+    late["train"]["lr"] = 0.001  # this one changes the weights: trained again
+    (tmp_path / "configs" / "late.yaml").write_text(yaml.safe_dump(late))
+    code, _, stderr = run_study(scenario, "-o", tmp_path / "out", "--datasets", datasets, "--configs", tmp_path / "configs",
+                                "--iterations", 2, "--quiet")
+    assert code == 0 and "(checkpoint reused)" not in (tmp_path / "out" / "table1.md").read_text()
+
+
+def test_the_paper_preset_runs_table1s_five_rows_and_table2(study, tmp_path, monkeypatch):
+    """`--preset paper` at tiny size: the paper's configs and scenarios swapped for tiny ones, same loop."""
+    import train.cli
+
+    scenario, configs, datasets, _, _ = study
+    folder = tmp_path / "scenarios"
+    folder.mkdir()
+    shutil.copy(scenario, folder / "tiny.yaml")
+    write_scenario(folder / "tiny_x2.yaml", name=NAME + "_x2", scan={"frames": 12, "density": 2})
+    monkeypatch.setitem(train.cli.PRESETS, "paper", (configs, (("tiny.yaml", ("single", "early", "late")),
+                                                               ("tiny_x2.yaml", ("single", "late")))))
+    monkeypatch.setattr(train.cli, "SCENARIOS", folder)
+    code, stdout, stderr = run_study("--preset", "paper", "-o", tmp_path / "out", "--datasets", datasets, "--iterations", 1,
+                                     "--quiet")
+    assert code == 0, stderr[-2000:]
+    for name, methods in (("tiny", METHODS), ("tiny_x2", ("Single Frame (x2)", "Late Fusion (x2)"))):
+        text = (tmp_path / "out" / name / "table1.md").read_text()
+        assert [line.split(" | ")[0][2:] for line in text.splitlines() if line.startswith("| ") and " (x" in line.split(" | ")[0]] == list(methods)
+        assert (tmp_path / "out" / name / "table2.md").is_file()
+
+
+def test_preset_and_scenario_are_exclusive(study):
+    scenario, _, _, _, _ = study
+    code, _, stderr = run_study(scenario, "--preset", "paper", "-o", "unused")
+    assert code == 2 and stderr.count("\n") == 1 and "not both" in stderr
+    code, _, stderr = run_study("-o", "unused")
+    assert code == 2 and stderr.count("\n") == 1 and "give a scenario YAML or --preset" in stderr
 
 
 def test_table2_has_every_tracker_at_both_ious(study):

@@ -47,6 +47,31 @@ def test_fit_writes_a_checkpoint_and_a_loss_log(trained):
 
 
 @pytest.mark.engine
+def test_bf16_autocast_trains_on_cpu(trained, tmp_path):
+    """The CUDA path's bfloat16 autocast, forced on CPU: finite weights, other than float32's."""
+    import torch
+
+    from train.checkpoint import load_checkpoint
+    from train.fit import fit
+
+    dataset, run = trained
+    bf16 = fit(tiny_config("late", iterations=2, bf16="on"), str(dataset), tmp_path, torch.device("cpu"), progress=False)
+    weights, plain = load_checkpoint(bf16.checkpoint).model, load_checkpoint(run / "checkpoint.pt").model
+    assert all(torch.isfinite(w).all() for w in weights.values() if w.is_floating_point())
+    assert not all(torch.equal(weights[k], plain[k]) for k in plain)
+
+
+@pytest.mark.engine
+def test_a_learning_curve_without_val_clips_fails_before_training(trained, tmp_path, capsys):
+    dataset, _ = trained
+    config = tmp_path / "curve.yaml"
+    config.write_text(yaml.safe_dump(tiny_config("late", eval_every=1).model_dump(mode="json")))
+    code, err = call_train(capsys, "fit", config, "--dataset", dataset, "-o", tmp_path / "run", "--quiet")
+    assert code == 2 and err.count("\n") == 1 and "no clips in the 'val' split" in err
+    assert not (tmp_path / "run" / "checkpoint.pt").exists()
+
+
+@pytest.mark.engine
 def test_eval_writes_ap_for_the_three_boxes(trained, tmp_path, capsys):
     dataset, run = trained
     code, err = call_train(capsys, "eval", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet")

@@ -13,7 +13,7 @@ from simgen.errors import UserError
 from train.config import DetectorConfig, parse_config
 
 FORMAT = "simgen-train/detector"
-VERSION = 1
+VERSION = 2  # 2: the model config in named parts (pillar_encoder, backbone_2d, fusion, head)
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import torch
+from tqdm import tqdm
 
 import simgen.datasets
 from simgen.cli import dispatch
@@ -22,7 +23,7 @@ from train.config import DetectorConfig, load_config
 from train.evaluate import detect, evaluate, format_ap_table, write_ap_csv
 from train.fit import fit
 from train.models.detector import Detector
-from train.study import CONFIGS, StudyOptions, parse_models, run_study
+from train.study import CONFIGS, PRESETS, SCENARIOS, StudyOptions, parse_models, run_study
 from train.study_report import write_tables
 
 SPLITS = ("train", "val", "all")
@@ -90,19 +91,33 @@ def _detect(args: argparse.Namespace) -> int:
     return 0
 
 
-def _study(args: argparse.Namespace) -> int:
-    if args.iterations is not None and args.iterations < 1:
-        raise UserError(f"--iterations: {args.iterations} is not a positive number of batches")
-    scenario = load_scenario(args.scenario)
-    models = parse_models(args.models, scenario.scan.density)
-    options = StudyOptions(Path(args.scenario), Path(args.output), Path(args.datasets), models, args.iterations, args.workers,
-                           args.seed, Path(args.configs), _device(args.device), not args.quiet)
-    spelled = [args.scenario, "-o", args.output, "--models", ",".join(models), "--datasets", args.datasets]
+def _one_study(args: argparse.Namespace, scenario_path: str, models_text: str, configs: str, out: str) -> list[Path]:
+    """One scenario's study; returns the table files."""
+    scenario = load_scenario(scenario_path)
+    models = parse_models(models_text, scenario.scan.density)
+    options = StudyOptions(Path(scenario_path), Path(out), Path(args.datasets), models, args.iterations, args.workers,
+                           args.seed, Path(configs), _device(args.device), not args.quiet)
+    spelled = [scenario_path, "-o", out, "--models", ",".join(models), "--datasets", args.datasets]
     spelled += ["--device", args.device]
     for key in ("iterations", "workers", "seed"):
         spelled += [f"--{key}", str(getattr(args, key))] if getattr(args, key) is not None else []
-    spelled += ["--configs", args.configs] if Path(args.configs) != CONFIGS else []
-    paths = write_tables(run_study(options, scenario), shlex.join(["simgen-train", "study", *spelled]), options.out)
+    spelled += ["--configs", configs] if Path(configs) != CONFIGS else []
+    return write_tables(run_study(options, scenario), shlex.join(["simgen-train", "study", *spelled]), options.out)
+
+
+def _study(args: argparse.Namespace) -> int:
+    if args.iterations is not None and args.iterations < 1:
+        raise UserError(f"--iterations: {args.iterations} is not a positive number of batches")
+    if (args.scenario is None) == (args.preset is None):
+        raise UserError("study: give a scenario YAML or --preset, not both")
+    if args.scenario is not None:
+        paths = _one_study(args, args.scenario, args.models, args.configs, args.output)
+    else:
+        configs, runs = PRESETS[args.preset]
+        paths = []
+        for scenario, models in tqdm(runs, desc=f"study --preset {args.preset}", unit="scenario", disable=args.quiet):
+            out = str(Path(args.output) / Path(scenario).stem)
+            paths += _one_study(args, str(SCENARIOS / scenario), ",".join(models), str(configs), out)
     print("\n".join(str(p) for p in paths))
     return 0
 
@@ -138,15 +153,19 @@ def build_parser() -> argparse.ArgumentParser:
         p.set_defaults(func=func)
 
     p = sub.add_parser("study", help="a scenario -> its dataset -> the paper's Table 1 (AP) and Table 2 (tracking) in OUT")
-    p.add_argument("scenario", help="scenario YAML (scenarios/); its dataset is DATASETS/<name>, made if missing")
+    p.add_argument("scenario", nargs="?", help="scenario YAML (scenarios/); its dataset is DATASETS/<name>, made if missing")
+    p.add_argument("--preset", choices=sorted(PRESETS), help="instead of a scenario: `paper` runs the paper's Table 1 (x1: "
+                   "single, early, late; x2: single, late) and Table 2 with the paper-size configs (train/configs/paper/, "
+                   "for a GPU: docs/gpu_study.md) into OUT/paper_x1/ and OUT/paper_x2/")
     p.add_argument("-o", "--output", required=True, help="output folder (created): table1/2.md and .csv, a run per model")
     p.add_argument("--models", default="late", help="Table 1 rows, comma-separated: late and any of single, early "
-                   "(default: late)")
+                   "(default: late; --preset sets them)")
     p.add_argument("--iterations", type=int, help="training batches per model (default: each config's)")
     p.add_argument("--workers", type=int, help="override train.workers (loader processes)")
     p.add_argument("--seed", type=int, help="override the configs' seed")
     p.add_argument("--datasets", default="datasets", help="folder of datasets by scenario name (default: datasets)")
-    p.add_argument("--configs", default=str(CONFIGS), help="folder with single/early/late.yaml (default: train/configs)")
+    p.add_argument("--configs", default=str(CONFIGS), help="folder with single/early/late.yaml (default: train/configs; "
+                   "--preset sets it)")
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto", help="default: CUDA when present")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=_study)

@@ -7,13 +7,14 @@ field. Lengths in metres, angles in radians.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, ClassVar, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from simgen.validation import read_yaml, validate
 
 TRACKLET_FRAMES = 3  # t-2, t-1, t
+POINT_FEATURES = 4  # x, y, z metres, intensity 0-1 per point (early fusion adds the frame offset)
 
 
 class _Strict(BaseModel):
@@ -58,9 +59,20 @@ class DataConfig(_Strict):
         return round((y1 - y0) / self.pillar_size_m), round((x1 - x0) / self.pillar_size_m)
 
 
-class BackboneConfig(_Strict):
+class PillarEncoderConfig(_Strict):
+    """PointPillars' pillar feature net: one Linear + BatchNorm + ReLU per point, max over the pillar."""
+
+    name: Literal["pillar_vfe"] = "pillar_vfe"
+    channels: int = Field(16, ge=1)  # features per pillar (the pseudo-image's channels)
+    # Point decorations divided by their span (x, y by the range's half-width, z by its half-height,
+    # offsets by the pillar size, the frame offset by 2) so that none dwarfs another before the Linear.
+    scale_inputs: bool = False
+
+
+class Backbone2dConfig(_Strict):
     """PointPillars' top-down blocks (pedestrian: 4, 6, 6 layers) and their upsampling to one size."""
 
+    name: Literal["pointpillars"] = "pointpillars"
     layers: tuple[int, int, int] = (4, 6, 6)
     strides: tuple[int, int, int] = (2, 2, 2)
     channels: tuple[int, int, int] = (8, 16, 32)
@@ -73,14 +85,45 @@ class BackboneConfig(_Strict):
         return self.strides[0] // self.upsample_strides[0]
 
     @model_validator(mode="after")
-    def _common_size(self) -> "BackboneConfig":
+    def _common_size(self) -> "Backbone2dConfig":
         total, sizes = 1, []
         for stride, up in zip(self.strides, self.upsample_strides):
             total *= stride
             sizes.append(total / up)
         if len(set(sizes)) != 1 or sizes[0] != int(sizes[0]):
-            raise ValueError("'model.backbone': every block must upsample to the same size (strides / upsample_strides)")
+            raise ValueError("'model.backbone_2d': every block must upsample to the same size (strides / upsample_strides)")
         return self
+
+
+class NoFusionConfig(_Strict):
+    """Frame t alone (the paper's single-frame baseline)."""
+
+    name: Literal["none"]
+    input_frames: ClassVar[int] = 1  # point clouds read per sample
+    canvases: ClassVar[int] = 1  # pseudo-images per sample
+    time_channel: ClassVar[bool] = False  # points carry their frame offset (-2, -1, 0)
+
+
+class EarlyFusionConfig(_Strict):
+    """The three sweeps merged into one cloud with a time channel, one backbone pass."""
+
+    name: Literal["early"]
+    input_frames: ClassVar[int] = TRACKLET_FRAMES
+    canvases: ClassVar[int] = 1
+    time_channel: ClassVar[bool] = True
+
+
+class LateFusionConfig(_Strict):
+    """The paper's module: one backbone pass per frame, a 3x3x3 Conv3d per level over the frames."""
+
+    name: Literal["late"]
+    input_frames: ClassVar[int] = TRACKLET_FRAMES
+    canvases: ClassVar[int] = TRACKLET_FRAMES
+    time_channel: ClassVar[bool] = False
+
+
+FusionConfig = Annotated[NoFusionConfig | EarlyFusionConfig | LateFusionConfig, Field(discriminator="name")]
+METHODS = {"none": "single", "early": "early", "late": "late"}  # fusion name -> the paper's Table 1 method
 
 
 class AnchorConfig(_Strict):
@@ -91,28 +134,37 @@ class AnchorConfig(_Strict):
     unmatch_iou: float = Field(0.35, ge=0.0, le=1.0)  # negative below; ignored between
 
 
-class ModelConfig(_Strict):
-    fusion: Literal["single", "early", "late"]
+class BoxCoderConfig(_Strict):
+    name: Literal["residual"] = "residual"  # SECOND's residual coding (train.models.box_coder)
+
+
+class HeadConfig(_Strict):
+    """SSD-style dense head: per anchor a score, K boxes (t-2, t-1, t or t only) and a direction bin."""
+
+    name: Literal["anchor_head"] = "anchor_head"
     tracklet_boxes: Literal[1, 3] = 1  # boxes regressed per anchor: t only, or t-2, t-1, t
-    pillar_channels: int = Field(16, ge=1)
-    backbone: BackboneConfig = BackboneConfig()
     anchor: AnchorConfig = AnchorConfig()
+    box_coder: BoxCoderConfig = BoxCoderConfig()
     dir_offset_rad: float = 0.78539
 
-    @property
-    def input_frames(self) -> int:
-        """Point clouds the model reads: 1 for `single`, 3 otherwise."""
-        return 1 if self.fusion == "single" else TRACKLET_FRAMES
+
+class ModelConfig(_Strict):
+    """The detector's named parts, each built by its registry (train.models.registry)."""
+
+    pillar_encoder: PillarEncoderConfig = PillarEncoderConfig()
+    backbone_2d: Backbone2dConfig = Backbone2dConfig()
+    fusion: FusionConfig
+    head: HeadConfig = HeadConfig()
 
     @property
-    def canvases(self) -> int:
-        """Pseudo-images per sample: one per frame for `late`, one otherwise."""
-        return TRACKLET_FRAMES if self.fusion == "late" else 1
+    def method(self) -> str:
+        """The paper's name of this model: single, early or late."""
+        return METHODS[self.fusion.name]
 
     @model_validator(mode="after")
     def _boxes(self) -> "ModelConfig":
-        if self.fusion == "single" and self.tracklet_boxes != 1:
-            raise ValueError("'model.tracklet_boxes': a single-frame model regresses 1 box")
+        if self.fusion.input_frames == 1 and self.head.tracklet_boxes != 1:
+            raise ValueError("'model.head.tracklet_boxes': a single-frame model regresses 1 box")
         return self
 
 
@@ -136,6 +188,8 @@ class TrainConfig(_Strict):
     workers: int = Field(2, ge=0)
     checkpoint_every: int = Field(500, ge=1)
     log_every: int = Field(10, ge=1)
+    eval_every: int = Field(0, ge=0)  # learning curve: AP on the val clips every this many iterations (0: none)
+    bf16: Literal["auto", "on", "off"] = "auto"  # bfloat16 autocast; auto: on CUDA only
 
 
 class InferConfig(_Strict):
@@ -156,13 +210,30 @@ class DetectorConfig(_Strict):
 
     @model_validator(mode="after")
     def _weights(self) -> "DetectorConfig":
-        if len(self.loss.loc_weights) < self.model.tracklet_boxes:
-            raise ValueError(f"'loss.loc_weights': needs {self.model.tracklet_boxes} weights")
-        cells = self.data.grid_size
-        stride = self.model.backbone.strides[0] * self.model.backbone.strides[1] * self.model.backbone.strides[2]
+        boxes = self.model.head.tracklet_boxes
+        if len(self.loss.loc_weights) < boxes:
+            raise ValueError(f"'loss.loc_weights': needs {boxes} weights")
+        cells, strides = self.data.grid_size, self.model.backbone_2d.strides
+        stride = strides[0] * strides[1] * strides[2]
         if any(c % stride for c in cells):
-            raise ValueError(f"'model.backbone.strides': the {cells[0]}x{cells[1]} pillar grid must divide by {stride}")
+            raise ValueError(f"'model.backbone_2d.strides': the {cells[0]}x{cells[1]} pillar grid must divide by {stride}")
         return self
+
+
+# Training settings that do not change the weights (the loader's draws are seeded per sample, not per process).
+NOT_WEIGHTS_TRAIN = ("workers", "log_every", "checkpoint_every", "eval_every")
+
+
+def same_weights(a: DetectorConfig, b: DetectorConfig) -> bool:
+    """Whether training with `a` and with `b` gives the same weights (they differ at most in `infer` and NOT_WEIGHTS_TRAIN)."""
+
+    def decisive(config: DetectorConfig) -> dict:
+        data = config.model_dump(mode="json")
+        del data["infer"]
+        data["train"] = {k: v for k, v in data["train"].items() if k not in NOT_WEIGHTS_TRAIN}
+        return data
+
+    return decisive(a) == decisive(b)
 
 
 def parse_config(data: object, source: str = "config") -> DetectorConfig:

@@ -4,15 +4,18 @@ A sample at frame t holds the point clouds the model reads (t alone for `single`
 otherwise) and, for every object of the configured classes whose centre at t is in range, its
 boxes at t-2, t-1 and t matched by track id. Augmentation (flip, rotation, scale) is one global
 transform for all three frames; the crop follows it. Points become pillar indices here, in the
-loader's workers; the model turns them into pillar features.
+loader's workers; the model turns them into pillar features. Training targets come from the
+detector's own target assigner (train.models.target_assigner), handed in by the caller, so this
+module knows nothing of anchors or models.
 """
 
 from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 import torch
@@ -21,9 +24,8 @@ from numpy.typing import NDArray
 import simgen.datasets
 from simgen.errors import UserError
 from train.config import TRACKLET_FRAMES, AugmentConfig, DetectorConfig
-from train.models.anchors import AnchorGrid, Targets
 
-POINT_FEATURES = 4  # x, y, z metres, intensity 0-1 (early fusion adds the frame offset)
+Assign = Callable[[NDArray[np.float32], NDArray[np.bool_]], Any]  # (boxes (G, 3, 7), box_mask (G, 3)) -> targets
 
 
 @dataclass(frozen=True)
@@ -62,7 +64,7 @@ def load_sample(dataset: simgen.datasets.Dataset, clip: str, index: int, config:
         found = (frame.track_id[order[at]] == track_id) if len(order) else np.zeros(len(track_id), bool)
         boxes[found, k] = frame.boxes[order[at[found]]]
         mask[:, k] = found
-    clouds = frames[-config.model.input_frames:]
+    clouds = frames[-config.model.fusion.input_frames:]
     points = tuple(
         np.column_stack([f.points_m, f.intensity.astype(np.float32) / 255.0]).astype(np.float32) for f in clouds
     )
@@ -105,7 +107,7 @@ def crop(sample: Sample, point_range_m: tuple[float, ...]) -> Sample:
 
 def model_points(sample: Sample, config: DetectorConfig) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
     """Point features (P, F) and each point's canvas (P,): early fusion merges the sweeps with a time channel."""
-    if config.model.fusion != "early":
+    if not config.model.fusion.time_channel:
         canvas = np.concatenate([np.full(len(p), k, np.int64) for k, p in enumerate(sample.points)])
         return np.concatenate(sample.points), canvas
     offsets = np.arange(1 - len(sample.points), 1, dtype=np.float32)  # frames before t: -2, -1, 0
@@ -131,13 +133,13 @@ class Encoded:
     features: NDArray[np.float32]  # (P, F)
     cells: NDArray[np.int64]  # (P,) flat pillar index within the point's canvas
     canvas: NDArray[np.int64]  # (P,) which input canvas (frame) the point belongs to
-    targets: Targets
+    targets: Any  # what the detector's assigner made of the sample's boxes; None when not training
 
 
-def encode_sample(sample: Sample, config: DetectorConfig, grid: AnchorGrid) -> Encoded:
+def encode_sample(sample: Sample, config: DetectorConfig, assign: Assign | None = None) -> Encoded:
     features, canvas = model_points(sample, config)
-    return Encoded(sample, features, pillar_cells(features[:, :3], config), canvas,
-                   grid.assign(sample.boxes, sample.box_mask))
+    targets = None if assign is None else assign(sample.boxes, sample.box_mask)
+    return Encoded(sample, features, pillar_cells(features[:, :3], config), canvas, targets)
 
 
 @dataclass(frozen=True)
@@ -147,31 +149,28 @@ class Batch:
     features: torch.Tensor  # (P, F) float32
     pillar: torch.Tensor  # (P,) int64 flat index into (B * canvases * rows * columns)
     batch_size: int
-    labels: torch.Tensor  # (B, N_a) int8
-    positives: torch.Tensor  # (n,) int64 flat index into (B * N_a)
-    deltas: torch.Tensor  # (n, K, 7)
-    box_mask: torch.Tensor  # (n, K) bool
-    direction: torch.Tensor  # (n,) int64
+    targets: Any  # the assigner's collated targets (train.models.target_assigner.BatchTargets), or None
     samples: tuple[Sample, ...]
 
-    def to(self, device: torch.device) -> "Batch":
-        tensors = ("features", "pillar", "labels", "positives", "deltas", "box_mask", "direction")
-        return replace(self, **{name: getattr(self, name).to(device) for name in tensors})
+    def to(self, device: torch.device, non_blocking: bool = False) -> "Batch":
+        targets = None if self.targets is None else self.targets.to(device, non_blocking=non_blocking)
+        return replace(self, features=self.features.to(device, non_blocking=non_blocking),
+                       pillar=self.pillar.to(device, non_blocking=non_blocking), targets=targets)
+
+    def pin_memory(self) -> "Batch":
+        """Page-locked copies, for asynchronous copies to a CUDA device (DataLoader(pin_memory=True) calls it)."""
+        targets = None if self.targets is None else self.targets.pin_memory()
+        return replace(self, features=self.features.pin_memory(), pillar=self.pillar.pin_memory(), targets=targets)
 
 
-def collate(items: list[Encoded], canvases: int, grid_cells: int, anchors: int) -> Batch:
-    """Concatenate samples; pillar and anchor indices get per-sample offsets."""
+def collate(items: list[Encoded], canvases: int, grid_cells: int, collate_targets: Callable[[list], Any] | None = None) -> Batch:
+    """Concatenate samples; pillar indices get per-sample offsets; targets go to `collate_targets`."""
     pillar = [(b * canvases + e.canvas) * grid_cells + e.cells for b, e in enumerate(items)]
-    positives = [b * anchors + e.targets.positives for b, e in enumerate(items)]
     return Batch(
         features=torch.from_numpy(np.concatenate([e.features for e in items])),
         pillar=torch.from_numpy(np.concatenate(pillar)),
         batch_size=len(items),
-        labels=torch.from_numpy(np.stack([e.targets.labels for e in items])),
-        positives=torch.from_numpy(np.concatenate(positives)),
-        deltas=torch.from_numpy(np.concatenate([e.targets.deltas for e in items])),
-        box_mask=torch.from_numpy(np.concatenate([e.targets.box_mask for e in items])),
-        direction=torch.from_numpy(np.concatenate([e.targets.direction for e in items])),
+        targets=None if collate_targets is None else collate_targets([e.targets for e in items]),
         samples=tuple(e.sample for e in items),
     )
 
@@ -181,12 +180,13 @@ class SampleSet(torch.utils.data.Dataset):
 
     Training draw k takes sample perm_e[k mod n] with e = k div n (a seeded permutation per epoch)
     and augments it with the generator seeded by (seed, k), so runs repeat whatever the workers.
+    `assign` (the detector's target assigner) makes each sample's training targets.
     """
 
-    def __init__(self, path: str, split: str | None, config: DetectorConfig, draws: int | None = None) -> None:
-        self.path, self.config, self.draws = path, config, draws
+    def __init__(self, path: str, split: str | None, config: DetectorConfig, draws: int | None = None,
+                 assign: Assign | None = None) -> None:
+        self.path, self.config, self.draws, self.assign = path, config, draws, assign
         self.keys = sample_keys(simgen.datasets.open(path), split)
-        self.grid = AnchorGrid(config)
         self._dataset: simgen.datasets.Dataset | None = None  # opened again in each worker process
 
     def __len__(self) -> int:
@@ -204,14 +204,18 @@ class SampleSet(torch.utils.data.Dataset):
         sample = load_sample(self._dataset, *self.key(item), self.config)
         if self.draws is not None:
             sample = augment(sample, self.config.data.augment, np.random.default_rng([self.config.seed, 1, item]))
-        return encode_sample(crop(sample, self.config.data.point_range_m), self.config, self.grid)
+        return encode_sample(crop(sample, self.config.data.point_range_m), self.config, self.assign)
 
 
-def loader(samples: SampleSet, batch_size: int, workers: int) -> Iterator[Batch]:
-    """Batches in order, built by `workers` processes ahead of the model (0: in this process)."""
+def loader(samples: SampleSet, batch_size: int, workers: int, collate_targets: Callable[[list], Any] | None = None,
+           pin_memory: bool = False) -> Iterator[Batch]:
+    """Batches in order, built by `workers` processes ahead of the model (0: in this process).
+
+    `pin_memory`: batches in page-locked memory, for `Batch.to(cuda, non_blocking=True)`.
+    """
     rows, cols = samples.config.data.grid_size
     gather = functools.partial(
-        collate, canvases=samples.config.model.canvases, grid_cells=rows * cols, anchors=len(samples.grid)
+        collate, canvases=samples.config.model.fusion.canvases, grid_cells=rows * cols, collate_targets=collate_targets
     )
     return iter(
         torch.utils.data.DataLoader(
@@ -220,6 +224,7 @@ def loader(samples: SampleSet, batch_size: int, workers: int) -> Iterator[Batch]
             shuffle=False,
             num_workers=workers,
             collate_fn=gather,
+            pin_memory=pin_memory,
             prefetch_factor=4 if workers else None,
             persistent_workers=False,
         )

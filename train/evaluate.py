@@ -49,8 +49,8 @@ def predict(model: Detector, config: DetectorConfig, dataset: str, split: str | 
             progress: bool = True) -> Iterator[tuple[Sample, Detections]]:
     """Each sample of the split (frames with two before them), in clip and frame order, with its tracklets."""
     samples = SampleSet(dataset, split, config)
-    anchors = torch.from_numpy(samples.grid.anchors).to(device)
     model = model.to(device).eval()
+    anchors = model.head.anchors
     batches = loader(samples, EVAL_BATCH, config.train.workers)
     total = -(-len(samples) // EVAL_BATCH)
     with torch.no_grad():

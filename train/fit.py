@@ -1,7 +1,12 @@
-"""Training: a seeded stream of augmented samples, AdamW on a one-cycle schedule, CSV log, checkpoints."""
+"""Training: a seeded stream of augmented samples, AdamW on a one-cycle schedule, CSV log, learning curve, checkpoints.
+
+On CUDA the loader pins its batches and the copies to the device overlap the model; the forward
+pass runs under bfloat16 autocast (`train.bf16`), the loss in float32.
+"""
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import math
 import time
@@ -14,8 +19,10 @@ from tqdm import tqdm
 from train.checkpoint import Checkpoint, save_checkpoint
 from train.config import DetectorConfig
 from train.data import SampleSet, loader
+from train.evaluate import average_precisions, mean_ap, predict
+from train.learning_curve import CurvePoint, write_curve
 from train.losses import detection_loss
-from train.models.detector import build_detector
+from train.models.detector import Detector, build_detector
 
 CHECKPOINT_NAME = "checkpoint.pt"
 LOG_NAME = "train_log.csv"
@@ -31,40 +38,65 @@ def one_cycle_lr(step: int, total: int, peak: float) -> float:
     return high + (low - high) * 0.5 * (1 + math.cos(math.pi * phase))
 
 
+def autocast(device: torch.device, mode: str) -> contextlib.AbstractContextManager:
+    """bfloat16 autocast for `train.bf16` (`auto`: on CUDA only; `on` works on CPU too, for tests)."""
+    enabled = mode == "on" or (mode == "auto" and device.type == "cuda")
+    return torch.autocast(device.type, dtype=torch.bfloat16, enabled=enabled)
+
+
 @dataclass(frozen=True)
 class FitResult:
     checkpoint: Path
     iterations: int
-    samples_per_s: float  # training samples (frames t) per second of wall time, loading included
+    samples_per_s: float  # training samples (frames t) per second of wall time, loading included, val passes not
+
+
+def _val_point(model: Detector, config: DetectorConfig, dataset: str, device: torch.device, iteration: int) -> CurvePoint:
+    start = time.perf_counter()
+    rows = average_precisions(list(predict(model, config, dataset, "val", device, progress=False)))
+    model.train()
+    return CurvePoint(iteration, rows, time.perf_counter() - start)
 
 
 def fit(config: DetectorConfig, dataset: str, out: Path, device: torch.device, progress: bool = True) -> FitResult:
-    """Train for `config.train.iterations` batches on the dataset's `train` clips; write into `out`."""
+    """Train for `config.train.iterations` batches on the dataset's `train` clips; write into `out`.
+
+    With `train.eval_every`, also score the val clips every that many iterations and after the
+    last one (learning_curve.csv and .png); the weights do not depend on it.
+    """
     train = config.train
-    samples = SampleSet(dataset, "train", config, draws=train.iterations * train.batch_size)
     model = build_detector(config).to(device).train()
+    assigner = model.head.assigner
+    samples = SampleSet(dataset, "train", config, draws=train.iterations * train.batch_size, assign=assigner)
+    if train.eval_every:
+        SampleSet(dataset, "val", config)  # no val clips: say so now, not after training
     optimizer = torch.optim.AdamW(model.parameters(), lr=train.lr, betas=(0.95, 0.99), weight_decay=train.weight_decay)
     out.mkdir(parents=True, exist_ok=True)
     fields = ["iteration", "seconds", "samples_per_s", "lr", "loss", "loss_cls", "loss_dir"]
-    fields += [f"loss_loc_{k}" for k in range(config.model.tracklet_boxes)]
+    fields += [f"loss_loc_{k}" for k in range(config.model.head.tracklet_boxes)]
+    cuda = device.type == "cuda"
+    curve: list[CurvePoint] = []
+    losses: list[tuple[int, float]] = []
 
     def save(iteration: int) -> Path:
         path = out / CHECKPOINT_NAME
         save_checkpoint(path, Checkpoint(config, model.state_dict(), optimizer.state_dict(), iteration))
         return path
 
-    start = time.perf_counter()
+    start, val_s = time.perf_counter(), 0.0
     with open(out / LOG_NAME, "w", newline="") as log_file:
         log = csv.DictWriter(log_file, fieldnames=fields)
         log.writeheader()
-        bar = tqdm(loader(samples, train.batch_size, train.workers), total=train.iterations, desc=f"fit {config.name}",
-                   unit="it", disable=not progress, dynamic_ncols=True)
+        batches = loader(samples, train.batch_size, train.workers, assigner.collate, pin_memory=cuda)
+        bar = tqdm(batches, total=train.iterations, desc=f"fit {config.name}", unit="it", disable=not progress, dynamic_ncols=True)
         for step, batch in enumerate(bar):
             lr = one_cycle_lr(step, train.iterations, train.lr)
             for group in optimizer.param_groups:
                 group["lr"] = lr
-            batch = batch.to(device)
-            terms = detection_loss(model(batch), batch, config.loss)
+            batch = batch.to(device, non_blocking=cuda)
+            with autocast(device, train.bf16):
+                output = model(batch)
+            terms = detection_loss(output.float(), batch.targets, config.loss)
             optimizer.zero_grad(set_to_none=True)
             terms.total.backward()
             torch.nn.utils.clip_grad_norm_(model.parameters(), train.grad_clip)
@@ -72,12 +104,19 @@ def fit(config: DetectorConfig, dataset: str, out: Path, device: torch.device, p
             done = step + 1
             if done % train.log_every == 0 or done == train.iterations:
                 values = terms.as_floats()
+                losses.append((done, values["loss"]))
                 seconds = time.perf_counter() - start
-                log.writerow({"iteration": done, "seconds": f"{seconds:.2f}", "samples_per_s": f"{done * train.batch_size / seconds:.3f}",
+                log.writerow({"iteration": done, "seconds": f"{seconds:.2f}",
+                              "samples_per_s": f"{done * train.batch_size / (seconds - val_s):.3f}",
                               "lr": f"{lr:.6g}", **{k: f"{v:.5f}" for k, v in values.items()}})
                 log_file.flush()
                 bar.set_postfix(loss=f"{values['loss']:.3f}", cls=f"{values['loss_cls']:.3f}")
+            if train.eval_every and (done % train.eval_every == 0 or done == train.iterations):
+                curve.append(_val_point(model, config, dataset, device, done))
+                val_s += curve[-1].eval_s
+                write_curve(out, curve, losses, f"{config.name}: AP on val while training")
+                bar.set_postfix(loss=f"{terms.as_floats()['loss']:.3f}", ap3d=f"{mean_ap(curve[-1].rows, '3d'):.1f}")
             if done % train.checkpoint_every == 0 and done < train.iterations:
                 save(done)
-    seconds = time.perf_counter() - start
+    seconds = time.perf_counter() - start - val_s
     return FitResult(save(train.iterations), train.iterations, train.iterations * train.batch_size / seconds)

@@ -13,8 +13,8 @@ import torch
 import torch.nn.functional as F
 
 from train.config import LossConfig
-from train.data import Batch
 from train.models.head import HeadOutput
+from train.models.target_assigner import BatchTargets
 
 
 @dataclass(frozen=True)
@@ -46,23 +46,24 @@ def _sin_yaw(pred: torch.Tensor, target: torch.Tensor) -> tuple[torch.Tensor, to
     return torch.cat([pred[..., :6], sin_pred], -1), torch.cat([target[..., :6], sin_target], -1)
 
 
-def detection_loss(output: HeadOutput, batch: Batch, config: LossConfig) -> LossTerms:
-    labels = batch.labels.reshape(-1)
-    positives = max(len(batch.positives), 1)
+def detection_loss(output: HeadOutput, targets: BatchTargets, config: LossConfig) -> LossTerms:
+    """The loss of a batch's head outputs (float32) against the assigner's targets."""
+    labels = targets.labels.reshape(-1)
+    positives = max(len(targets.positives), 1)
     scores = output.scores.reshape(-1)
     cared = labels >= 0
     cls = focal_loss(scores[cared], (labels[cared] == 1).to(scores.dtype), config.focal_alpha, config.focal_gamma).sum() / positives
 
     boxes = output.deltas.shape[2]
-    pred = output.deltas.reshape(-1, boxes, 7)[batch.positives]
-    pred, target = _sin_yaw(pred, batch.deltas)
+    pred = output.deltas.reshape(-1, boxes, 7)[targets.positives]
+    pred, target = _sin_yaw(pred, targets.deltas)
     per_box = F.smooth_l1_loss(pred, target, beta=config.smooth_l1_beta, reduction="none").sum(-1)  # (n, K)
-    per_box = (per_box * batch.box_mask).sum(0) / positives
+    per_box = (per_box * targets.box_mask).sum(0) / positives
     loc = tuple(per_box[k] for k in range(boxes))
     weights = config.loc_weights[-boxes:]
 
-    direction = output.direction.reshape(-1, 2)[batch.positives]
-    dir_loss = F.cross_entropy(direction, batch.direction, reduction="sum") / positives
+    direction = output.direction.reshape(-1, 2)[targets.positives]
+    dir_loss = F.cross_entropy(direction, targets.direction, reduction="sum") / positives
 
     total = config.cls_weight * cls + sum(w * v for w, v in zip(weights, loc)) + config.dir_weight * dir_loss
     return LossTerms(total, cls, loc, dir_loss)

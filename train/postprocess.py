@@ -32,7 +32,7 @@ def postprocess(output: HeadOutput, anchors: torch.Tensor, config: DetectorConfi
         keep = keep[torch.argsort(scores[keep], descending=True)[: infer.pre_nms]]
         boxes = decode(anchors[keep], output.deltas[b, keep])
         bins = output.direction[b, keep].argmax(dim=-1)
-        boxes[..., 6] = apply_direction(boxes[..., 6], bins[:, None], config.model.dir_offset_rad)
+        boxes[..., 6] = apply_direction(boxes[..., 6], bins[:, None], config.model.head.dir_offset_rad)
         boxes_np = boxes.detach().cpu().numpy().astype(np.float32)
         scores_np = scores[keep].detach().cpu().numpy().astype(np.float32)
         kept = nms_bev(boxes_np[:, -1], scores_np, infer.nms_iou, infer.max_detections)

@@ -3,7 +3,8 @@
 1. The dataset: `DATASETS/<scenario name>` is reused when its manifest holds the same resolved
    scenario, else made by `simgen generate` in a subprocess (the public interface).
 2. Table 1: each model asked for (`late` always) is trained on the `train` clips (train.fit), or
-   reused from `OUT/<model>/` when that checkpoint has the same config and data, and its boxes at t
+   reused from `OUT/<model>/` when that checkpoint has the same data and a config that gives the same
+   weights (inference settings may differ: train.config.same_weights), and its boxes at t
    are scored on the `val` clips (train.evaluate: AP in BEV and 3D, IoU 0.5).
 3. Table 2: the `late` model's tracklets are filtered for tracking (train.tracklet_filter: a score
    threshold and a tight NMS, chosen on the `train` clips by the full 3D DIoU tracker's sAMOTA),
@@ -32,7 +33,7 @@ from simgen.atomic import atomic_path
 from simgen.errors import UserError
 from simgen.scenario import Scenario, parse_scenario
 from train.checkpoint import load_checkpoint
-from train.config import DetectorConfig, load_config, parse_config
+from train.config import DetectorConfig, load_config, parse_config, same_weights
 from train.data import Sample
 from train.detections import ClipTracklets, clip_tracklets, write_tracklets
 from train.evaluate import ApRow, average_precisions, predict, visible_objects
@@ -54,6 +55,9 @@ MIN_IOUS = (0.25, 0.5)  # 3D IoU of a true positive: AB3DMOT's default, and the 
 CONFIGS = Path(__file__).parent / "configs"
 TRACKER_CONFIGS = CONFIGS / "tracking"  # one YAML per Table 2 row, in file-name order
 FILTER_REFERENCE = "3D DIoU + birth/death + split"  # the tracker whose sAMOTA on the train clips picks the filter
+SCENARIOS = Path(__file__).parents[1] / "scenarios"
+# `--preset`: the paper's Tables 1 (all five rows) and 2 at its model size: (configs, (scenario, models) per study).
+PRESETS = {"paper": (CONFIGS / "paper", (("paper_x1.yaml", PAPER_ROWS[1.0]), ("paper_x2.yaml", PAPER_ROWS[2.0])))}
 TRAINED_ON = "trained_on.json"  # beside a study's checkpoint: the dataset and scenario it was fitted on
 GENERATE_STATE = Path(".simgen") / "scenario.json"  # an interrupted `simgen generate` run
 
@@ -173,8 +177,8 @@ def model_config(options: StudyOptions, model: str) -> DetectorConfig:
     if options.seed is not None:
         data["seed"] = options.seed
     config = parse_config(data, f"{path} (with the study's options)")
-    if config.model.fusion != model:
-        raise UserError(f"{path}: is a {config.model.fusion!r} model, the study needs {model!r} there")
+    if config.model.method != model:
+        raise UserError(f"{path}: is a {config.model.method!r} model, the study needs {model!r} there")
     return config
 
 
@@ -182,15 +186,25 @@ def _trained_on(dataset: StudyDataset) -> dict:
     return {"dataset": str(dataset.path.resolve()), "scenario": dataset.scenario.model_dump(mode="json")}
 
 
+def _same_data(trained_on: dict, dataset: StudyDataset) -> bool:
+    """Whether a checkpoint's marker names this dataset and its scenario, read with today's schema (so a
+    field added since, at its default, or a dump written by an older simgen still counts as the same)."""
+    try:
+        scenario = parse_scenario(trained_on["scenario"], TRAINED_ON)
+    except (KeyError, TypeError, UserError):
+        return False
+    return trained_on.get("dataset") == str(dataset.path.resolve()) and scenario == dataset.scenario
+
+
 def trained_model(options: StudyOptions, model: str, dataset: StudyDataset) -> tuple[Detector, DetectorConfig, bool, float]:
     """(detector, config, reused, fit seconds): the checkpoint in OUT/<model>/ if it matches, else train.fit."""
     config, run = model_config(options, model), options.out / model
     path, marker = run / CHECKPOINT_NAME, run / TRAINED_ON
     start = time.perf_counter()
-    reused = path.is_file() and marker.is_file() and json.loads(marker.read_text()) == _trained_on(dataset)
+    reused = path.is_file() and marker.is_file() and _same_data(json.loads(marker.read_text()), dataset)
     if reused:
         checkpoint = load_checkpoint(path)
-        reused = checkpoint.config == config and checkpoint.iteration == config.train.iterations
+        reused = same_weights(checkpoint.config, config) and checkpoint.iteration == config.train.iterations
     if not reused:
         marker.unlink(missing_ok=True)
         fit(config, str(dataset.path), run, options.device, options.progress)

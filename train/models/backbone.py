@@ -1,11 +1,12 @@
-"""PointPillars' 2D backbone: three top-down conv blocks, each upsampled to one common size."""
+"""PointPillars' 2D backbone (OpenPCDet's BaseBEVBackbone): three top-down conv blocks, each upsampled to one size."""
 
 from __future__ import annotations
 
 import torch
 from torch import nn
 
-from train.config import BackboneConfig
+from train.config import Backbone2dConfig
+from train.models.registry import BACKBONES_2D
 
 
 def _conv(inputs: int, outputs: int, stride: int = 1) -> list[nn.Module]:
@@ -17,10 +18,11 @@ def _up(inputs: int, outputs: int, stride: int) -> nn.Sequential:
     return nn.Sequential(conv, nn.BatchNorm2d(outputs, eps=1e-3, momentum=0.1), nn.ReLU())
 
 
+@BACKBONES_2D.register("pointpillars")
 class Backbone(nn.Module):
     """(N, C_in, rows, columns) -> three levels (N, upsample_channels[i], rows / s, columns / s)."""
 
-    def __init__(self, config: BackboneConfig, inputs: int) -> None:
+    def __init__(self, config: Backbone2dConfig, inputs: int) -> None:
         super().__init__()
         blocks = []
         for layers, stride, channels in zip(config.layers, config.strides, config.channels):

@@ -8,10 +8,15 @@ Every box of a tracklet is coded against the anchor of its box at t.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import torch
 from numpy.typing import NDArray
+
+from train.config import BoxCoderConfig
+from train.models.registry import BOX_CODERS
 
 
 def encode(anchors: NDArray[np.float32], boxes: NDArray[np.float32]) -> NDArray[np.float32]:
@@ -60,3 +65,16 @@ def apply_direction(yaw_rad: torch.Tensor, bins: torch.Tensor, offset_rad: float
     """Yaw with its half-turn chosen by the direction classifier: in [offset, offset + 2 pi)."""
     within = torch.remainder(yaw_rad - offset_rad, math.pi)
     return within + offset_rad + math.pi * bins.to(yaw_rad.dtype)
+
+
+@dataclass(frozen=True)
+class BoxCoder:
+    """A named coding: residuals from boxes against anchors (numpy, in the loader) and back (torch)."""
+
+    encode: Callable[[NDArray[np.float32], NDArray[np.float32]], NDArray[np.float32]]
+    decode: Callable[[torch.Tensor, torch.Tensor], torch.Tensor]
+
+
+@BOX_CODERS.register("residual")
+def residual_coder(section: BoxCoderConfig) -> BoxCoder:
+    return BoxCoder(encode, decode)

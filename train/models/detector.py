@@ -1,39 +1,53 @@
-"""The detector a config describes: `single`, `early` or `late` PointPillars."""
+"""The detector a config describes, assembled from named parts as OpenPCDet does.
+
+`model.pillar_encoder`, `model.backbone_2d`, `model.fusion` and `model.head` each name a part
+registered in train.models.registry: the paper's single-frame, early- and late-fusion models are
+three configs, not three code paths.
+"""
 
 from __future__ import annotations
+
+from typing import Protocol
 
 import torch
 from torch import nn
 
-from train.config import DetectorConfig
-from train.data import POINT_FEATURES, Batch
-from train.models.backbone import Backbone
-from train.models.fusion import ConcatLevels, LateFusion
-from train.models.head import DetectionHead, HeadOutput
-from train.models.pillars import PillarFeatureNet
+from train.config import POINT_FEATURES, DetectorConfig
+from train.models import backbone, fusion, head, pillars  # noqa: F401 - their parts register themselves
+from train.models.head import HeadOutput
+from train.models.registry import BACKBONES_2D, FUSIONS, HEADS, PILLAR_ENCODERS
+
+
+class PillarBatch(Protocol):
+    """What the detector reads of a batch (train.data.Batch)."""
+
+    features: torch.Tensor  # (P, F) points of all samples
+    pillar: torch.Tensor  # (P,) int64 flat index into (B * canvases * rows * columns)
+    batch_size: int
 
 
 class Detector(nn.Module):
-    """Batch -> per-anchor scores, K boxes and direction logits.
+    """Batch -> per-anchor scores, K boxes and direction logits: pillar encoder, 2D backbone, fusion, head.
 
-    `single` and `early` run the backbone on one pseudo-image per sample (early: the three sweeps
-    merged, with a time channel); `late` runs it on each frame's and fuses the levels.
+    The backbone runs on `fusion.canvases` pseudo-images per sample (late: one per frame; early:
+    the sweeps merged, with a time channel; none: frame t), and the fusion turns its levels into
+    the head's input.
     """
 
     def __init__(self, config: DetectorConfig) -> None:
         super().__init__()
         model = config.model
-        self.canvases = model.canvases
-        point_features = POINT_FEATURES + (1 if model.fusion == "early" else 0)
-        self.pillars = PillarFeatureNet(config, point_features)
-        self.backbone = Backbone(model.backbone, model.pillar_channels)
-        channels = model.backbone.upsample_channels
-        self.fusion = LateFusion(channels, self.canvases) if model.fusion == "late" else ConcatLevels()
-        self.head = DetectionHead(sum(channels), len(model.anchor.yaws_rad), model.tracklet_boxes)
+        self.canvases = model.fusion.canvases
+        point_features = POINT_FEATURES + int(model.fusion.time_channel)
+        self.pillar_encoder = PILLAR_ENCODERS.build(model.pillar_encoder, config.data, point_features)
+        self.backbone_2d = BACKBONES_2D.build(model.backbone_2d, model.pillar_encoder.channels)
+        channels = model.backbone_2d.upsample_channels
+        self.fusion = FUSIONS.build(model.fusion, channels)
+        self.head = HEADS.build(model.head, config.data, model.backbone_2d, sum(channels))
 
-    def forward(self, batch: Batch) -> HeadOutput:
-        images = self.pillars(batch.features, batch.pillar, batch.batch_size * self.canvases)
-        return self.head(self.fusion(self.backbone(images), batch.batch_size))
+    def forward(self, batch: PillarBatch) -> HeadOutput:
+        images = self.pillar_encoder(batch.features, batch.pillar, batch.batch_size * self.canvases)
+        return self.head(self.fusion(self.backbone_2d(images), batch.batch_size))
 
 
 def build_detector(config: DetectorConfig) -> Detector:

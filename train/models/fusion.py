@@ -1,4 +1,5 @@
-"""How the three frames' features meet: early (already merged), or late (the paper's module).
+"""How the frames' features meet (`model.fusion.name`): none (one frame), early (sweeps merged before the
+pillars), or late (the paper's module).
 
 Late fusion: per backbone level, the three frames' features (C, 3, H, W) go through a 3x3x3
 Conv3d with no temporal padding (3 frames -> 1), BatchNorm and ReLU; the levels are then
@@ -9,6 +10,9 @@ from __future__ import annotations
 
 import torch
 from torch import nn
+
+from train.config import EarlyFusionConfig, LateFusionConfig, NoFusionConfig
+from train.models.registry import FUSIONS
 
 
 class ConcatLevels(nn.Module):
@@ -40,3 +44,13 @@ class LateFusion(nn.Module):
             stacked = features.view(batch_size, self.frames, c, h, w).transpose(1, 2)  # (B, C, frames, H, W)
             fused.append(fuse(stacked).squeeze(2))
         return torch.cat(fused, dim=1)
+
+
+@FUSIONS.register("none", "early")
+def _concat(section: NoFusionConfig | EarlyFusionConfig, channels: tuple[int, ...]) -> ConcatLevels:
+    return ConcatLevels()
+
+
+@FUSIONS.register("late")
+def _late(section: LateFusionConfig, channels: tuple[int, ...]) -> LateFusion:
+    return LateFusion(channels, section.canvases)

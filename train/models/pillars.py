@@ -1,8 +1,9 @@
-"""Pillar feature net (PointPillars' simplified PointNet) and the scatter to pseudo-images.
+"""Pillar feature net (PointPillars' simplified PointNet, OpenPCDet's PillarVFE) and the scatter to pseudo-images.
 
 Each point is decorated with its offsets from the mean of its pillar's points and from the
-pillar's centre, goes through Linear + BatchNorm + ReLU, and every pillar keeps the per-channel
-maximum over its points. There is no cap on points or pillars: the scatter is exact.
+pillar's centre (optionally every input divided by its span: `scale_inputs`), goes through Linear + BatchNorm + ReLU, and every pillar keeps the per-channel
+maximum over its points. There is no cap on points or pillars: the scatter is exact. Everything
+after the loader (pillar grouping, decoration, pooling, scatter) runs on the model's device.
 """
 
 from __future__ import annotations
@@ -10,23 +11,29 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from train.config import DetectorConfig
+from train.config import POINT_FEATURES, DataConfig, PillarEncoderConfig
+from train.models.registry import PILLAR_ENCODERS
 
 
+@PILLAR_ENCODERS.register("pillar_vfe")
 class PillarFeatureNet(nn.Module):
     """Points (P, F) with flat pillar indices -> pseudo-images (canvases, C, rows, columns)."""
 
-    def __init__(self, config: DetectorConfig, point_features: int) -> None:
+    def __init__(self, section: PillarEncoderConfig, data: DataConfig, point_features: int) -> None:
         super().__init__()
-        data = config.data
         self.rows, self.cols = data.grid_size
         self.pillar_m = data.pillar_size_m
         x0, y0, z0, _, _, z1 = data.point_range_m
         self.register_buffer("origin", torch.tensor([x0, y0, 0.5 * (z0 + z1)]), persistent=False)
-        channels = config.model.pillar_channels
-        self.linear = nn.Linear(point_features + 6, channels, bias=False)
-        self.norm = nn.BatchNorm1d(channels, eps=1e-3, momentum=0.1)
-        self.channels = channels
+        self.channels = section.channels
+        half_x, half_y, half_z = 0.5 * (data.point_range_m[3] - x0), 0.5 * (data.point_range_m[4] - y0), 0.5 * (z1 - z0)
+        # x, y, z, intensity, then the frame offset (-2, -1, 0) if any; offsets from the pillar's mean and centre
+        point = [1 / half_x, 1 / half_y, 1 / half_z, 1.0] + [0.5] * (point_features - POINT_FEATURES)
+        offsets = [1 / self.pillar_m, 1 / self.pillar_m, 1 / half_z] * 2
+        scale = torch.tensor(point + offsets) if section.scale_inputs else torch.ones(point_features + 6)
+        self.register_buffer("input_scale", scale, persistent=False)
+        self.linear = nn.Linear(point_features + 6, self.channels, bias=False)
+        self.norm = nn.BatchNorm1d(self.channels, eps=1e-3, momentum=0.1)
 
     def forward(self, features: torch.Tensor, pillar: torch.Tensor, canvases: int) -> torch.Tensor:
         cells = self.rows * self.cols
@@ -39,7 +46,7 @@ class PillarFeatureNet(nn.Module):
             [(within % self.cols).to(features.dtype) + 0.5, (within // self.cols).to(features.dtype) + 0.5], dim=1
         ) * self.pillar_m
         centre = torch.cat([centre, torch.zeros_like(centre[:, :1])], dim=1) + self.origin
-        decorated = torch.cat([features, features[:, :3] - mean[inverse], features[:, :3] - centre], dim=1)
+        decorated = torch.cat([features, features[:, :3] - mean[inverse], features[:, :3] - centre], dim=1) * self.input_scale
         point = torch.relu(self.norm(self.linear(decorated)))
         pooled = torch.zeros(len(unique), self.channels, device=features.device, dtype=point.dtype)
         pooled = pooled.scatter_reduce(0, inverse[:, None].expand(-1, self.channels), point, reduce="amax", include_self=True)
