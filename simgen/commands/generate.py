@@ -8,7 +8,6 @@ from tqdm import tqdm
 
 from simgen.commands.arguments import add_command, add_scenario_arguments
 from simgen.errors import UserError
-from simgen.scenario import load_scenario, parse_scenario
 
 FORMAT_CHOICES = ("parquet", "kitti", "kitti_tracking", "openpcdet")
 
@@ -29,6 +28,14 @@ def register(subparsers) -> None:
     parser.add_argument("--clips", type=int, help="number of clips (default: the scenario's dataset.clips)")
     parser.add_argument("--workers", type=int, default=1, help="local worker processes, one clip each at a time (default 1)")
     parser.add_argument("--executor", choices=("local", "ray"), default="local", help="where clips run (default local)")
+    parser.add_argument(
+        "--shard-frames",
+        type=int,
+        default=0,
+        help="frames rendered per work unit: a clip's motion is captured once, then its frames are rendered as "
+        "shards of this many frames in parallel, each resumable (default 0: automatic, enough shards for every "
+        "worker, at most 3000 frames each); the dataset is the same whatever the value",
+    )
     parser.add_argument("--address", help="Ray cluster address, e.g. 10.0.0.5:6379 (default: start a local Ray)")
     parser.add_argument("--resume", action="store_true", help="finish an interrupted run, keeping the clips it completed")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing dataset in the output directory")
@@ -36,6 +43,8 @@ def register(subparsers) -> None:
 
 
 def _resolve(args):
+    from simgen.scenario import load_scenario, parse_scenario
+
     scenario = load_scenario(args.scenario)
     data = scenario.model_dump()
     if args.format:
@@ -55,7 +64,7 @@ def _resolve(args):
 
 
 class _Bars:
-    """A bar per clip in flight, and one for the whole dataset."""
+    """A bar per clip in flight (its engine capture, then its frames), and one for the whole dataset."""
 
     def __init__(self, clips: int):
         self.clips = clips
@@ -65,18 +74,21 @@ class _Bars:
     def __call__(self, event: str, clip_index: int, number: int) -> None:
         if self.total is None:
             self.total = tqdm(total=self.clips, unit="clip", desc="dataset", position=0, dynamic_ncols=True)
-        if event == "start":
+        if event in ("capture", "start"):
+            self._close(clip_index)
             free = min(set(range(1, len(self.bars) + 2)) - {b.pos for b in self.bars.values()})
-            self.bars[clip_index] = tqdm(
-                total=number, unit="frame", desc=f"clip_{clip_index:04d}", position=free, leave=False, dynamic_ncols=True
-            )
-        elif event == "frame" and clip_index in self.bars:
+            desc, unit = (f"clip_{clip_index:04d} capture", "motion frame") if event == "capture" else (f"clip_{clip_index:04d}", "frame")
+            self.bars[clip_index] = tqdm(total=number, unit=unit, desc=desc, position=free, leave=False, dynamic_ncols=True)
+        elif event in ("captured", "frame") and clip_index in self.bars:
             self.bars[clip_index].update(number)
         elif event == "done":
-            bar = self.bars.pop(clip_index, None)
-            if bar:
-                bar.close()
+            self._close(clip_index)
             self.total.update(1)
+
+    def _close(self, clip_index: int) -> None:
+        bar = self.bars.pop(clip_index, None)
+        if bar:
+            bar.close()
 
     def close(self) -> None:
         for bar in self.bars.values():
@@ -100,7 +112,7 @@ def run(args) -> int:
     bars = _Bars(scenario.dataset.clips)
     try:
         totals = generate(
-            scenario, args.output, args.workers, args.executor, args.address, args.resume, args.overwrite, bars
+            scenario, args.output, args.workers, args.executor, args.address, args.resume, args.overwrite, bars, args.shard_frames
         )
     finally:
         bars.close()
