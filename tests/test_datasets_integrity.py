@@ -78,8 +78,8 @@ def test_manifest_missing_malformed_or_foreign(tmp_path):
     (tmp_path / MANIFEST_NAME).write_text("{")
     with pytest.raises(UserError, match="manifest.json: not a readable manifest"):
         simgen.datasets.open(tmp_path)
-    (tmp_path / MANIFEST_NAME).write_text(json.dumps({"schema_version": 2, "format": "parquet"}))
-    with pytest.raises(UserError, match="dataset schema version 2, this simgen reads 1"):
+    (tmp_path / MANIFEST_NAME).write_text(json.dumps({"schema_version": 3, "format": "parquet"}))
+    with pytest.raises(UserError, match="dataset schema version 3, this simgen reads 2"):
         simgen.datasets.open(tmp_path)
     with pytest.raises(UserError, match="no such dataset directory"):
         simgen.datasets.open(tmp_path / "nowhere")

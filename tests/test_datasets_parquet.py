@@ -84,7 +84,7 @@ def test_a_table_of_another_schema_version_is_rejected(tmp_path):
         if entry["path"] == relative:
             entry.update(bytes=(tmp_path / relative).stat().st_size, sha256=sha256_file(tmp_path / relative))
     (tmp_path / MANIFEST_NAME).write_text(json.dumps(manifest))
-    with pytest.raises(UserError, match=r"part-0.parquet: dataset schema version 99, this simgen reads 1$"):
+    with pytest.raises(UserError, match=r"part-0.parquet: dataset schema version 99, this simgen reads 2$"):
         simgen.datasets.open(tmp_path).frame("clip_0000", 0)
 
 

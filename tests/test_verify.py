@@ -84,9 +84,9 @@ def test_schema_version_unlisted_files_and_bad_input(tmp_path):
     code, lines, _ = verify(tmp_path)
     assert code == 1 and f"{stray}: not listed in manifest.json (readers that glob the folders would read it)" in lines
     manifest = tmp_path / "manifest.json"
-    manifest.write_text(manifest.read_text().replace('"schema_version": 1', '"schema_version": 99'))
+    manifest.write_text(manifest.read_text().replace('"schema_version": 2', '"schema_version": 99'))
     code, lines, _ = verify(tmp_path)
-    assert code == 1 and lines[0] == f"{manifest}: schema version 99, this simgen reads 1"
+    assert code == 1 and lines[0] == f"{manifest}: schema version 99, this simgen reads 2"
     code, lines, stderr = verify(tmp_path / "missing")
     assert code == 2 and stderr == f"simgen verify: error: {tmp_path / 'missing'}: no such dataset directory\n"
 
