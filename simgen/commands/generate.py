@@ -55,9 +55,9 @@ def _resolve(args):
         data["scan"]["density"] = args.density
     if args.frames is not None:
         data["scan"]["frames"] = args.frames
-        # Capture just enough motion for the frames asked for (plus one sample to interpolate to).
-        needed = args.frames / data["scan"]["frame_rate_hz"] * data["motion"]["capture_hz"] + 2
-        data["motion"]["frames"] = max(data["motion"]["frames"], int(needed))
+        # Capture just enough motion for the frames asked for (plus one sample to interpolate to):
+        # `--frames 6000` of a whole match plays 10 minutes, not the match.
+        data["motion"]["frames"] = int(args.frames / data["scan"]["frame_rate_hz"] * data["motion"]["capture_hz"] + 2)
     if args.seed is not None:
         data["seed"] = args.seed
     return parse_scenario(data, "command line")

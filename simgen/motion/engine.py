@@ -152,8 +152,9 @@ def capture_motion(
                     continue
                 at_step_end = sub == PHYSICS_STEPS_PER_ENGINE_STEP - 1
                 times.append(physics_step * PHYSICS_STEP_S)
-                keypoints.append(samples[sub, :-1].reshape(num_humanoids, NUM_KEYPOINTS, 3))
-                ball.append(samples[sub, -1])
+                # Copies: a view would keep the step's whole buffer (10 samples) alive all clip long.
+                keypoints.append(samples[sub, :-1].reshape(num_humanoids, NUM_KEYPOINTS, 3).copy())
+                ball.append(samples[sub, -1].copy())
                 positions.append(
                     _engine_positions(info, num_humanoids)
                     if at_step_end
@@ -166,9 +167,9 @@ def capture_motion(
         engine.close()
     return MotionClip(
         time_s=np.round(np.array(times, dtype=np.float64), 6),
-        keypoints_m=np.stack(keypoints).astype(np.float32),
-        ball_m=np.stack(ball).astype(np.float32),
-        engine_position_m=np.stack(positions).astype(np.float32),
+        keypoints_m=np.stack(keypoints).astype(np.float32, copy=False),
+        ball_m=np.stack(ball).astype(np.float32, copy=False),
+        engine_position_m=np.stack(positions).astype(np.float32, copy=False),
         track_id=track_id,
         team=team,
         role=role,
