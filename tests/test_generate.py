@@ -93,41 +93,39 @@ def test_sharded_formats_match_whole_clips(tmp_path, fmt):
     assert manifest_files(tmp_path / "sharded") == manifest_files(tmp_path / "whole")
 
 
-def test_killed_run_resumes_to_the_same_manifest(parquet_dataset, tmp_path):
-    out = tmp_path / "killed"
-    command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), "--frames", "6", "--clips", "2"]
+def kill_when_recorded(out, pattern: str, *arguments) -> None:
+    """Start `simgen generate` into `out` and SIGKILL it as soon as a run-state marker matches `pattern`."""
+    command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), *arguments]
     process = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 300
-    while not list((out / ".simgen" / "clips").glob("*.json")) and time.time() < deadline:
-        time.sleep(0.05)
+    while not list((out / ".simgen").glob(pattern)) and time.time() < deadline:
+        time.sleep(0.02)
     process.send_signal(signal.SIGKILL)
     process.wait()
     assert not (out / "manifest.json").exists()
-    assert not [p for p in out.rglob("*") if ".tmp-" in p.name]
+
+
+def test_killed_run_resumes_to_the_same_manifest(parquet_dataset, tmp_path):
+    out = tmp_path / "killed"
+    kill_when_recorded(out, "clips/*.json", "--frames", "6", "--clips", "2")
     again = run_simgen("generate", SMOKE, "-o", out, "--frames", 6, "--clips", 2)
     assert again.returncode == 2 and "--resume" in again.stderr
     resumed = generate(out, "--resume")
     assert "1 kept from the interrupted run" in resumed.stdout
     assert manifest_files(out) == manifest_files(parquet_dataset[0])
+    assert not [p for p in out.rglob("*") if ".tmp-" in p.name]  # the killed writer's temporaries are gone
 
 
 def test_killed_in_the_middle_of_a_clip_resumes_its_shards(parquet_dataset, tmp_path):
     out = tmp_path / "killed"
     sharded = ("--frames", "6", "--clips", "2", "--shard-frames", "2")
-    command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), *sharded]
-    process = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.time() + 300
-    while not list((out / ".simgen" / "shards").glob("*/*.json")) and time.time() < deadline:
-        time.sleep(0.02)
-    process.send_signal(signal.SIGKILL)
-    process.wait()
-    done_shards = {p.name for p in (out / ".simgen" / "shards").glob("*/*.json")}
-    assert done_shards and not list((out / ".simgen" / "clips").glob("*.json"))  # killed mid-clip
-    assert (out / ".simgen" / "motion" / "0000.parquet").exists()  # the capture is kept
+    kill_when_recorded(out, "shards/*/*.json", *sharded)
+    assert not list((out / ".simgen" / "clips").glob("*.json"))  # killed in the middle of clip 0
+    assert (out / ".simgen" / "motion" / "0000.parquet").exists()  # its capture is kept, and its first shard
     resumed = run_simgen("generate", SMOKE, "-o", out, *sharded, "--resume")
     assert resumed.returncode == 0, resumed.stderr[-2000:]
     assert manifest_files(out) == manifest_files(parquet_dataset[0])
-    assert not (out / ".simgen").exists()
+    assert not (out / ".simgen").exists() and not [p for p in out.rglob("*") if ".tmp-" in p.name]
 
 
 def test_a_second_run_into_the_same_directory_is_refused(tmp_path):
