@@ -18,16 +18,18 @@ def register(subparsers) -> None:
         "generate",
         "make a labelled LiDAR dataset from a scenario",
         "For each clip: play the scenario's match in the football engine, scan it with the "
-        "scenario's LiDARs, label every humanoid, and write the frames. Clips run in parallel on this "
-        "machine's cores (--workers) or as tasks on a Ray cluster (--executor ray); the same scenario "
-        "and seed give byte-identical datasets either way. An interrupted run is finished with --resume.",
+        "scenario's LiDARs, label every humanoid, and write the frames as they are made (memory does not "
+        "grow with a clip's length). A clip is captured once, then its frames are rendered in shards "
+        "(--shard-frames); captures and shards run in parallel on this machine's cores (--workers) or as "
+        "tasks on a Ray cluster (--executor ray); the same scenario and seed give byte-identical datasets "
+        "whatever the executor, workers or shards. An interrupted run is finished with --resume.",
     )
     add_scenario_arguments(parser, "dataset directory to create, e.g. datasets/NAME", "frames per clip (default: the scenario's scan.frames)")
     parser.add_argument("--format", choices=FORMAT_CHOICES, help="dataset layout (default: the scenario's, else parquet)")
     parser.add_argument("--density", type=float, help="shots per second as a multiple of the real sensor's (x1, x2, ...)")
     parser.add_argument("--clips", type=int, help="number of clips (default: the scenario's dataset.clips)")
-    parser.add_argument("--workers", type=int, default=1, help="local worker processes, one clip each at a time (default 1)")
-    parser.add_argument("--executor", choices=("local", "ray"), default="local", help="where clips run (default local)")
+    parser.add_argument("--workers", type=int, default=1, help="local worker processes, one capture or shard each at a time (default 1)")
+    parser.add_argument("--executor", choices=("local", "ray"), default="local", help="where captures and shards run (default local)")
     parser.add_argument(
         "--shard-frames",
         type=int,

@@ -112,15 +112,17 @@ def run_capture(job: Job, progress: Progress) -> dict:
 
     scenario = Scenario.model_validate(job.scenario)
     root = Path(job.root)
-    captured = [0]
+    unreported = [0]  # motion frames captured since the last report
 
     def tick(number: int) -> None:
-        captured[0] += number
-        if captured[0] % CAPTURE_REPORT_FRAMES == 0 or captured[0] == scenario.motion.frames:
-            progress("captured", job.clip_index, CAPTURE_REPORT_FRAMES if captured[0] % CAPTURE_REPORT_FRAMES == 0 else captured[0] % CAPTURE_REPORT_FRAMES)
+        unreported[0] += number
+        if unreported[0] >= CAPTURE_REPORT_FRAMES:
+            progress("captured", job.clip_index, unreported[0])
+            unreported[0] = 0
 
     progress("capture", job.clip_index, scenario.motion.frames)
     clip = capture_motion(scenario.motion, engine_seed(scenario, job.clip_index), tick)
+    progress("captured", job.clip_index, unreported[0])
     frames = frame_count(scenario, clip)
     motion_path(root, job.clip_index).parent.mkdir(parents=True, exist_ok=True)
     write_clip(clip, motion_path(root, job.clip_index))
@@ -270,12 +272,12 @@ class _Clips:
         self.clip_indices = clip_indices
 
     def first_jobs(self) -> list[Job]:
-        return [job for i in self.clip_indices for job in self._after_capture_or_capture(i)]
+        return [job for i in self.clip_indices for job in self._resume_or_capture(i)]
 
     def _job(self, kind: str, clip_index: int, frames: tuple[int, int] = (0, 0)) -> Job:
         return Job(kind, self.payload, clip_index, str(self.root), self.shard_frames, self.min_shards, frames)
 
-    def _after_capture_or_capture(self, clip_index: int) -> list[Job]:
+    def _resume_or_capture(self, clip_index: int) -> list[Job]:
         if plan_path(self.root, clip_index).exists() and motion_path(self.root, clip_index).exists():
             return self._planned(clip_index, json.loads(plan_path(self.root, clip_index).read_text()))
         return [self._job("capture", clip_index)]
@@ -384,6 +386,8 @@ def finish(root: Path, scenario: Scenario, records: list[dict]):
     from simgen.datasets import ClipRecord, finish_dataset
     from simgen.scan.sensor_rig import sensor_infos
 
+    for leftover in root.rglob("*.tmp-*"):  # of workers that died (a Ray task retried elsewhere)
+        leftover.unlink()
     manifest = finish_dataset(
         root,
         scenario.dataset.format,
