@@ -265,7 +265,7 @@ class _Clips:
     def __init__(self, root: Path, payload: dict, clip_indices: list[int], shard_frames: int, min_shards: int, progress: Progress):
         self.root, self.payload, self.progress = root, payload, progress
         self.shard_frames, self.min_shards = shard_frames, min_shards
-        self.min_shards_given = shard_frames > 0
+        self.automatic_shards = shard_frames <= 0
         self.plans: dict[int, dict] = {}
         self.left: dict[int, set[int]] = {}  # clip -> first frames of its shards not yet done
         self.records: list[dict] = []
@@ -367,7 +367,7 @@ def run_ray(clips: _Clips, address: str | None) -> list[dict]:
     except (ConnectionError, ValueError) as error:
         raise UserError(f"cannot reach the Ray cluster at {address!r}: {error}") from None
     try:
-        if not clips.min_shards_given:  # automatic shards: enough for the cluster's CPUs
+        if clips.automatic_shards:  # enough shards for the cluster's CPUs
             cpus = int(ray.cluster_resources().get("CPU", 1))
             clips.min_shards = max(1, math.ceil(cpus / max(len(clips.clip_indices), 1)))
         queue = Queue()
