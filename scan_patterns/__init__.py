@@ -35,7 +35,7 @@ from scan_patterns.sensors import (
     sensor_names,
 )
 from scan_patterns.shots import Shots, livox_angles
-from scan_patterns.stream import frame_shots, frame_window, head_shots, shots
+from scan_patterns.stream import frame_shots, frame_window, head_shots, shots, sweep_index
 
 __all__ = [
     "BEAM_DIVERGENCE_DEG",
@@ -66,5 +66,6 @@ __all__ = [
     "register_sensor",
     "sensor_names",
     "shots",
+    "sweep_index",
     "target_points_per_frame",
 ]

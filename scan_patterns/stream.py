@@ -74,6 +74,11 @@ def frame_shots(
         raise ValueError(f"sweeps_per_frame must be in 1..255, got {sweeps_per_frame}")
     t0, t1 = frame_window(frame_index, frame_rate_hz)
     out = shots(sensor, t0, t1, density)
-    sweep = np.ceil((out.t_s - t0) * frame_rate_hz * sweeps_per_frame - 1e-6) - 1
-    sweep = np.clip(sweep, 0, sweeps_per_frame - 1).astype(np.uint8)
-    return Shots(out.t_s, out.dirs, out.head, sweep, t0, t1)
+    return Shots(out.t_s, out.dirs, out.head, sweep_index(out.t_s, t0, frame_rate_hz, sweeps_per_frame), t0, t1)
+
+
+def sweep_index(t_s: np.ndarray, t0_s: float, frame_rate_hz: float, sweeps_per_frame: int) -> np.ndarray:
+    """(N,) uint8: which of a frame's `sweeps_per_frame` sweeps (each (t0 + k / (rate * sweeps), ...]
+    long) each shot time t_s (s) of the frame (t0_s, t0_s + 1 / rate] falls in."""
+    sweep = np.ceil((np.asarray(t_s) - t0_s) * frame_rate_hz * sweeps_per_frame - 1e-6) - 1
+    return np.clip(sweep, 0, sweeps_per_frame - 1).astype(np.uint8)

@@ -95,7 +95,7 @@ def test_a_failed_write_leaves_no_file_under_its_final_name(tmp_path, monkeypatc
     with pytest.raises(RuntimeError, match="disk full"):
         write_clip(tmp_path, "parquet", CLIPS[0], sensors(), 0)
     written = [str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*") if p.is_file()]
-    assert written == ["frames/clip_0000/part-0.parquet"]  # written before the failure; no points file, no temporary
+    assert written == []  # the clip's tables are written together, frame by frame: none renamed, no temporary left
 
 
 def test_bad_clips_are_one_line_errors(tmp_path):

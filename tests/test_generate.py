@@ -1,4 +1,5 @@
-"""`simgen generate` end to end: formats agree, executors agree, runs resume, runs lock."""
+"""`simgen generate` end to end: formats agree, executors, worker counts and shard sizes agree, runs
+resume (between clips and in the middle of a clip's shards), runs lock."""
 
 from __future__ import annotations
 
@@ -62,38 +63,69 @@ def test_other_formats_round_trip_to_the_parquet_frames(parquet_dataset, tmp_pat
             np.testing.assert_allclose(np.cos(a.boxes[:, 6] - b.boxes[:, 6]), 1.0, atol=1e-6)
 
 
-def test_workers_and_seeds(parquet_dataset, tmp_path):
+def test_workers_shards_and_seeds(parquet_dataset, tmp_path):
     two = tmp_path / "two"
     generate(two, "--workers", "2")
     assert manifest_files(two) == manifest_files(parquet_dataset[0])
+    for shard_frames, workers in (("1", "1"), ("4", "2")):  # partial clips joined into the final files
+        sharded = tmp_path / f"shards{shard_frames}"
+        generate(sharded, "--shard-frames", shard_frames, "--workers", workers)
+        assert manifest_files(sharded) == manifest_files(parquet_dataset[0])
     other = tmp_path / "other"
     generate(other, "--seed", "8")
     assert manifest_files(other) != manifest_files(parquet_dataset[0])
 
 
 def test_ray_executor_matches_local(parquet_dataset, tmp_path):
-    out = tmp_path / "ray"
+    out, sharded = tmp_path / "ray", tmp_path / "ray_shards"
     with local_ray_cluster() as address:
         generate(out, "--executor", "ray", "--address", address)
+        generate(sharded, "--executor", "ray", "--address", address, "--shard-frames", "4")
     assert manifest_files(out) == manifest_files(parquet_dataset[0])
+    assert manifest_files(sharded) == manifest_files(parquet_dataset[0])
+
+
+@pytest.mark.parametrize("fmt", ["kitti_tracking", "openpcdet"])
+def test_sharded_formats_match_whole_clips(tmp_path, fmt):
+    """kitti_tracking joins its shards' partial clips; OpenPCDet's shards write their frames in place."""
+    generate(tmp_path / "whole", "--format", fmt)
+    generate(tmp_path / "sharded", "--format", fmt, "--shard-frames", "4", "--workers", "2")
+    assert manifest_files(tmp_path / "sharded") == manifest_files(tmp_path / "whole")
+
+
+def kill_when_recorded(out, pattern: str, *arguments) -> None:
+    """Start `simgen generate` into `out` and SIGKILL it as soon as a run-state marker matches `pattern`."""
+    command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), *arguments]
+    process = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 300
+    while not list((out / ".simgen").glob(pattern)) and time.time() < deadline:
+        time.sleep(0.02)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    assert not (out / "manifest.json").exists()
 
 
 def test_killed_run_resumes_to_the_same_manifest(parquet_dataset, tmp_path):
     out = tmp_path / "killed"
-    command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), "--frames", "6", "--clips", "2"]
-    process = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.time() + 300
-    while not list((out / ".simgen" / "clips").glob("*.json")) and time.time() < deadline:
-        time.sleep(0.05)
-    process.send_signal(signal.SIGKILL)
-    process.wait()
-    assert not (out / "manifest.json").exists()
-    assert not [p for p in out.rglob("*") if ".tmp-" in p.name]
+    kill_when_recorded(out, "clips/*.json", "--frames", "6", "--clips", "2")
     again = run_simgen("generate", SMOKE, "-o", out, "--frames", 6, "--clips", 2)
     assert again.returncode == 2 and "--resume" in again.stderr
     resumed = generate(out, "--resume")
     assert "1 kept from the interrupted run" in resumed.stdout
     assert manifest_files(out) == manifest_files(parquet_dataset[0])
+    assert not [p for p in out.rglob("*") if ".tmp-" in p.name]  # the killed writer's temporaries are gone
+
+
+def test_killed_in_the_middle_of_a_clip_resumes_its_shards(parquet_dataset, tmp_path):
+    out = tmp_path / "killed"
+    sharded = ("--frames", "6", "--clips", "2", "--shard-frames", "2")
+    kill_when_recorded(out, "shards/*/*.json", *sharded)
+    assert not list((out / ".simgen" / "clips").glob("*.json"))  # killed in the middle of clip 0
+    assert (out / ".simgen" / "motion" / "0000.parquet").exists()  # its capture is kept, and its first shard
+    resumed = run_simgen("generate", SMOKE, "-o", out, *sharded, "--resume")
+    assert resumed.returncode == 0, resumed.stderr[-2000:]
+    assert manifest_files(out) == manifest_files(parquet_dataset[0])
+    assert not (out / ".simgen").exists() and not [p for p in out.rglob("*") if ".tmp-" in p.name]
 
 
 def test_a_second_run_into_the_same_directory_is_refused(tmp_path):

@@ -167,3 +167,24 @@ def test_captured_clip_points_fall_with_range_and_shots_add_up(motion_clip):
     near, middle, far = (np.median(counts[(ranges >= lo) & (ranges < hi)]) for lo, hi in ((0, 25), (25, 45), (45, 120)))
     assert near > middle > far, (near, middle, far)
     assert (counts == 0).any()  # some players get no point at all in a frame
+
+
+def test_points_carry_the_sweep_of_their_shot(motion_clip):
+    """Two 20 Hz sweeps merged into a 10 Hz frame: the first 50 ms of shots are sweep 0, the rest
+    sweep 1, and a shard of the clip renders the same frames bit for bit."""
+    from simgen.pipeline.clip import render_clip, render_frames
+    from simgen.scenario import parse_scenario
+
+    scenario = parse_scenario({"name": "t", "scan": {"frames": 4, "sweeps_per_frame": 2}})
+    frames = list(render_clip(scenario, motion_clip, 0))
+    for frame in frames:
+        scan = frame.scan
+        assert set(np.unique(scan.sweep)) == {0, 1}
+        assert scan.time_offset_s[scan.sweep == 0].max() <= 0.05 + 1e-6 < scan.time_offset_s[scan.sweep == 1].min() + 1e-6
+    single = parse_scenario({"name": "t", "scan": {"frames": 4}})
+    assert all((f.scan.sweep == 0).all() for f in render_clip(single, motion_clip, 0))
+    for whole, shard in zip(frames[2:], render_frames(scenario, motion_clip, 0, 2, 4)):
+        assert shard.index == whole.index
+        for name in ("points_m", "intensity", "time_offset_s", "sweep", "instance_id"):
+            np.testing.assert_array_equal(getattr(shard.scan, name), getattr(whole.scan, name))
+        np.testing.assert_array_equal(shard.labels.boxes, whole.labels.boxes)

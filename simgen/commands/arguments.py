@@ -3,8 +3,23 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import textwrap
+from collections import UserString
 from pathlib import Path
+from typing import Callable
+
+
+class LazyText(UserString):
+    """Help text made only when shown (e.g. a list that needs heavy imports), so that `simgen --help`
+    stays fast; argparse uses it as a string."""
+
+    def __init__(self, make: Callable[[], str]):
+        self._make = functools.cache(make)
+
+    @property
+    def data(self) -> str:  # UserString's methods read `data`
+        return self._make()
 
 from simgen.errors import UserError
 

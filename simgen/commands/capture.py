@@ -9,7 +9,6 @@ from tqdm import tqdm
 from simgen.atomic import check_output_allowed
 from simgen.commands.arguments import add_command, add_scenario_arguments
 from simgen.errors import UserError
-from simgen.scenario import load_scenario
 
 
 def register(subparsers) -> None:
@@ -30,7 +29,7 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from simgen.motion.clip_io import write_clip
     from simgen.motion.engine import capture_motion, check_level
-    from simgen.scenario import parse_scenario
+    from simgen.scenario import load_scenario, parse_scenario
 
     scenario = load_scenario(args.scenario)
     overrides = {}

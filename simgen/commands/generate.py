@@ -8,7 +8,6 @@ from tqdm import tqdm
 
 from simgen.commands.arguments import add_command, add_scenario_arguments
 from simgen.errors import UserError
-from simgen.scenario import load_scenario, parse_scenario
 
 FORMAT_CHOICES = ("parquet", "kitti", "kitti_tracking", "openpcdet", "mcap")
 
@@ -19,9 +18,11 @@ def register(subparsers) -> None:
         "generate",
         "make a labelled LiDAR dataset from a scenario",
         "For each clip: play the scenario's match in the football engine, scan it with the "
-        "scenario's LiDARs, label every humanoid, and write the frames. Clips run in parallel on this "
-        "machine's cores (--workers) or as tasks on a Ray cluster (--executor ray); the same scenario "
-        "and seed give byte-identical datasets either way. An interrupted run is finished with --resume.",
+        "scenario's LiDARs, label every humanoid, and write the frames as they are made (memory does not "
+        "grow with a clip's length). A clip is captured once, then its frames are rendered in shards "
+        "(--shard-frames); captures and shards run in parallel on this machine's cores (--workers) or as "
+        "tasks on a Ray cluster (--executor ray); the same scenario and seed give byte-identical datasets "
+        "whatever the executor, workers or shards. An interrupted run is finished with --resume.",
     )
     add_scenario_arguments(parser, "dataset directory to create, e.g. datasets/NAME", "frames per clip (default: the scenario's scan.frames)")
     parser.add_argument("--format", choices=FORMAT_CHOICES, help="dataset layout (default: the scenario's, else parquet)")
@@ -29,8 +30,16 @@ def register(subparsers) -> None:
                         help="kitti: also write blank placeholder training/image_2 PNGs, as OpenPCDet's KITTI info generation needs")
     parser.add_argument("--density", type=float, help="shots per second as a multiple of the real sensor's (x1, x2, ...)")
     parser.add_argument("--clips", type=int, help="number of clips (default: the scenario's dataset.clips)")
-    parser.add_argument("--workers", type=int, default=1, help="local worker processes, one clip each at a time (default 1)")
-    parser.add_argument("--executor", choices=("local", "ray"), default="local", help="where clips run (default local)")
+    parser.add_argument("--workers", type=int, default=1, help="local worker processes, one capture or shard each at a time (default 1)")
+    parser.add_argument("--executor", choices=("local", "ray"), default="local", help="where captures and shards run (default local)")
+    parser.add_argument(
+        "--shard-frames",
+        type=int,
+        default=0,
+        help="frames rendered per work unit: a clip's motion is captured once, then its frames are rendered as "
+        "shards of this many frames in parallel, each resumable (default 0: automatic, enough shards for every "
+        "worker, at most 3000 frames each); the dataset is the same whatever the value",
+    )
     parser.add_argument("--address", help="Ray cluster address, e.g. 10.0.0.5:6379 (default: start a local Ray)")
     parser.add_argument("--resume", action="store_true", help="finish an interrupted run, keeping the clips it completed")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing dataset in the output directory")
@@ -38,6 +47,8 @@ def register(subparsers) -> None:
 
 
 def _resolve(args):
+    from simgen.scenario import load_scenario, parse_scenario
+
     scenario = load_scenario(args.scenario)
     data = scenario.model_dump()
     if args.format:
@@ -50,16 +61,16 @@ def _resolve(args):
         data["scan"]["density"] = args.density
     if args.frames is not None:
         data["scan"]["frames"] = args.frames
-        # Capture just enough motion for the frames asked for (plus one sample to interpolate to).
-        needed = args.frames / data["scan"]["frame_rate_hz"] * data["motion"]["capture_hz"] + 2
-        data["motion"]["frames"] = max(data["motion"]["frames"], int(needed))
+        # Capture just enough motion for the frames asked for (plus one sample to interpolate to):
+        # `--frames 6000` of a whole match plays 10 minutes, not the match.
+        data["motion"]["frames"] = int(args.frames / data["scan"]["frame_rate_hz"] * data["motion"]["capture_hz"] + 2)
     if args.seed is not None:
         data["seed"] = args.seed
     return parse_scenario(data, "command line")
 
 
 class _Bars:
-    """A bar per clip in flight, and one for the whole dataset."""
+    """A bar per clip in flight (its engine capture, then its frames), and one for the whole dataset."""
 
     def __init__(self, clips: int):
         self.clips = clips
@@ -69,18 +80,21 @@ class _Bars:
     def __call__(self, event: str, clip_index: int, number: int) -> None:
         if self.total is None:
             self.total = tqdm(total=self.clips, unit="clip", desc="dataset", position=0, dynamic_ncols=True)
-        if event == "start":
+        if event in ("capture", "start"):
+            self._close(clip_index)
             free = min(set(range(1, len(self.bars) + 2)) - {b.pos for b in self.bars.values()})
-            self.bars[clip_index] = tqdm(
-                total=number, unit="frame", desc=f"clip_{clip_index:04d}", position=free, leave=False, dynamic_ncols=True
-            )
-        elif event == "frame" and clip_index in self.bars:
+            desc, unit = (f"clip_{clip_index:04d} capture", "motion frame") if event == "capture" else (f"clip_{clip_index:04d}", "frame")
+            self.bars[clip_index] = tqdm(total=number, unit=unit, desc=desc, position=free, leave=False, dynamic_ncols=True)
+        elif event in ("captured", "frame") and clip_index in self.bars:
             self.bars[clip_index].update(number)
         elif event == "done":
-            bar = self.bars.pop(clip_index, None)
-            if bar:
-                bar.close()
+            self._close(clip_index)
             self.total.update(1)
+
+    def _close(self, clip_index: int) -> None:
+        bar = self.bars.pop(clip_index, None)
+        if bar:
+            bar.close()
 
     def close(self) -> None:
         for bar in self.bars.values():
@@ -104,7 +118,7 @@ def run(args) -> int:
     bars = _Bars(scenario.dataset.clips)
     try:
         totals = generate(
-            scenario, args.output, args.workers, args.executor, args.address, args.resume, args.overwrite, bars
+            scenario, args.output, args.workers, args.executor, args.address, args.resume, args.overwrite, bars, args.shard_frames
         )
     finally:
         bars.close()

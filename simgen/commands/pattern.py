@@ -7,11 +7,10 @@ import sys
 import warnings
 from pathlib import Path
 
-import numpy as np
 
 from simgen import __version__
 from simgen.atomic import atomic_path
-from simgen.commands.arguments import add_command
+from simgen.commands.arguments import LazyText, add_command
 from simgen.errors import UserError
 
 MAX_SHOTS = 50_000_000  # ~1.3 GB of output; ask for longer spans in pieces with --start
@@ -39,7 +38,7 @@ def register(subparsers) -> None:
         "applied; heads follow one another, each in time order. A replayed file that runs "
         "out is looped, with a warning.",
     )
-    parser.epilog = "presets:\n" + _presets_help()
+    parser.epilog = LazyText(lambda: "presets:\n" + _presets_help())
     parser.add_argument("preset", metavar="PRESET", help="sensor preset (listed below)")
     parser.add_argument("--seconds", type=float, required=True, help="length of the window, s")
     parser.add_argument("--density", type=float, default=1.0, help="shots per second factor, any positive number (default 1)")
@@ -49,6 +48,8 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
+    import numpy as np
+
     import scan_patterns as sp
 
     if not math.isfinite(args.seconds) or args.seconds <= 0:

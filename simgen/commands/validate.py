@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 from simgen.errors import UserError
-from simgen.scenario import load_scenario
 
 
 def register(subparsers) -> None:
@@ -21,6 +20,7 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from simgen.motion.engine import check_level
+    from simgen.scenario import load_scenario
 
     for path in args.scenarios:
         scenario = load_scenario(path)

@@ -14,6 +14,7 @@ or 3 (unknown) for a box with no point on it. The ball is not labelled.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 from collections.abc import Sequence
 from pathlib import Path
@@ -22,9 +23,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from simgen.atomic import atomic_path
 from simgen.datasets.frame import Frame, class_names
 from simgen.datasets.kitti_camera import IMAGE_SIZE_PX, calib_lines, kitti_boxes, pitch_boxes
-from simgen.datasets.records import FileRecord, write_bytes, write_text
+from simgen.datasets.records import FileRecord, record_file, write_bytes, write_text
 from simgen.datasets.samples import float32_text, float64_text, from_xyzi, sample_name, to_xyzi
 from simgen.datasets.verify import DatasetFiles
 from simgen.errors import UserError
@@ -93,23 +95,41 @@ def label_lines(frame: LabelledFrame) -> list[str]:
     ]
 
 
-def write_kitti_clip(root: Path, frames: Sequence[LabelledFrame], clip_index: int, tracking: bool) -> list[FileRecord]:
-    records = []
-    for frame in frames:
+class KittiClipStream:
+    """One clip's KITTI files written as its frames come: per frame its .bin (and, for `kitti`, its
+    label and calib); `kitti_tracking`'s one label file per clip grows under a temporary name
+    until `close` renames it."""
+
+    def __init__(self, root: Path, clip_index: int, tracking: bool):
+        self.root, self.clip_index, self.tracking = Path(root), clip_index, tracking
+        self.records: list[FileRecord] = []
+        self._files = contextlib.ExitStack()
+        self._lines = 0
+        if tracking:
+            path = self.root / label_path(True, clip_index)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            self._labels = self._files.enter_context(self._files.enter_context(atomic_path(path)).open("w", encoding="utf-8", newline="\n"))
+
+    def add(self, frame: LabelledFrame) -> None:
         xyzi = to_xyzi(frame.scan.points_m, frame.scan.intensity)
-        records.append(write_bytes(root, velodyne_path(tracking, clip_index, frame.index), xyzi.tobytes(), len(xyzi)))
-        if not tracking:
-            records.append(write_text(root, label_path(False, clip_index, frame.index), label_lines(frame)))
-            records.append(write_text(root, calib_path(False, clip_index, frame.index), calib_lines(False)))
-    if tracking:
-        lines = [
-            f"{frame.index} {track} {line}"
-            for frame in frames
-            for track, line in zip(frame.labels.track_id, label_lines(frame))
-        ]
-        records.append(write_text(root, label_path(True, clip_index), lines))
-        records.append(write_text(root, calib_path(True, clip_index), calib_lines(True)))
-    return records
+        self.records.append(write_bytes(self.root, velodyne_path(self.tracking, self.clip_index, frame.index), xyzi.tobytes(), len(xyzi)))
+        if self.tracking:
+            lines = [f"{frame.index} {track} {line}" for track, line in zip(frame.labels.track_id, label_lines(frame))]
+            self._labels.write("".join(f"{line}\n" for line in lines))
+            self._lines += len(lines)
+        else:
+            self.records.append(write_text(self.root, label_path(False, self.clip_index, frame.index), label_lines(frame)))
+            self.records.append(write_text(self.root, calib_path(False, self.clip_index, frame.index), calib_lines(False)))
+
+    def close(self) -> list[FileRecord]:
+        self._files.close()
+        if self.tracking:
+            self.records.append(record_file(self.root, label_path(True, self.clip_index), self._lines))
+            self.records.append(write_text(self.root, calib_path(True, self.clip_index), calib_lines(True)))
+        return self.records
+
+    def abort(self) -> None:
+        self._files.__exit__(RuntimeError, RuntimeError("aborted"), None)
 
 
 def parse_labels(text: str, path: Path, tracking: bool) -> dict[str, NDArray]:

@@ -11,7 +11,6 @@ or `Official`. NNNNNN is the global sample number of simgen.datasets.samples.
 from __future__ import annotations
 
 import io
-from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -48,13 +47,23 @@ def label_lines(frame: LabelledFrame) -> list[str]:
     return [" ".join([*(float32_text(v) for v in box), name]) for box, name in zip(boxes, names)]
 
 
-def write_openpcdet_clip(root: Path, frames: Sequence[LabelledFrame], clip_index: int) -> list[FileRecord]:
-    records = []
-    for frame in frames:
+class OpenPCDetClipStream:
+    """One clip's OpenPCDet files written as its frames come: per frame its points and labels."""
+
+    def __init__(self, root: Path, clip_index: int):
+        self.root, self.clip_index = Path(root), clip_index
+        self.records: list[FileRecord] = []
+
+    def add(self, frame: LabelledFrame) -> None:
         xyzi = to_xyzi(frame.scan.points_m, frame.scan.intensity)
-        records.append(write_bytes(root, points_path(clip_index, frame.index), npy_bytes(xyzi), len(xyzi)))
-        records.append(write_text(root, labels_path(clip_index, frame.index), label_lines(frame)))
-    return records
+        self.records.append(write_bytes(self.root, points_path(self.clip_index, frame.index), npy_bytes(xyzi), len(xyzi)))
+        self.records.append(write_text(self.root, labels_path(self.clip_index, frame.index), label_lines(frame)))
+
+    def close(self) -> list[FileRecord]:
+        return self.records
+
+    def abort(self) -> None:
+        """Nothing to undo: every file is whole under its final name or absent."""
 
 
 def parse_labels(text: str, path: Path) -> tuple[np.ndarray, np.ndarray]:

@@ -10,6 +10,7 @@ behind the manifest's sha256 (which `verify=False` skips).
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 from collections.abc import Iterator, Sequence
@@ -25,12 +26,13 @@ from numpy.typing import NDArray
 from simgen.atomic import atomic_path
 from simgen.datasets.frame import Frame, class_names
 from simgen.datasets.records import FileRecord, record_file
-from simgen.datasets.schema import BOX_FIELDS, METADATA_KEY, SCHEMA_VERSION, TABLES, with_table_metadata
+from simgen.datasets.schema import BOX_FIELDS, CLIP_TABLES, METADATA_KEY, SCHEMA_VERSION, TABLES, with_table_metadata
 from simgen.datasets.verify import DatasetFiles
 from simgen.errors import UserError
 from simgen.vocab import NUM_KEYPOINTS
 
 if TYPE_CHECKING:
+    from simgen.labels.boxes import FrameLabels
     from simgen.labels.labelled_frame import LabelledFrame
     from simgen.scan.sensor_info import SensorInfo
 
@@ -63,21 +65,29 @@ def _table(name: str, columns: dict) -> pa.Table:
     return pa.Table.from_pydict(columns, schema=with_table_metadata(TABLES[name], name))
 
 
-def frames_table(frames: Sequence[LabelledFrame]) -> pa.Table:
-    return _table(
-        "frames",
-        {
-            "clip": _clip_column(frames[0].clip, len(frames)),
-            "frame": np.array([f.index for f in frames], np.int32),
-            "time_s": np.array([f.time_s for f in frames], np.float64),
-            "label_time_s": np.array([f.label_time_s for f in frames], np.float64),
-            "num_points": np.array([len(f.scan.points_m) for f in frames], np.int32),
-            "num_boxes": np.array([len(f.labels.boxes) for f in frames], np.int32),
-            "shots": np.array([f.scan.shots for f in frames], np.int64),
-            "dropped": np.array([f.scan.dropped for f in frames], np.int64),
-            "missed": np.array([f.scan.missed for f in frames], np.int64),
-        },
-    )
+def frame_row(frame: LabelledFrame) -> dict:
+    """A frame's row of the `frames` table (what a writer keeps of a frame once its points are written)."""
+    scan = frame.scan
+    return {
+        "frame": frame.index,
+        "time_s": frame.time_s,
+        "label_time_s": frame.label_time_s,
+        "num_points": len(scan.points_m),
+        "num_boxes": len(frame.labels.boxes),
+        "shots": scan.shots,
+        "dropped": scan.dropped,
+        "missed": scan.missed,
+    }
+
+
+FRAME_ROW_TYPES = {"frame": np.int32, "time_s": np.float64, "label_time_s": np.float64, "num_points": np.int32,
+                   "num_boxes": np.int32, "shots": np.int64, "dropped": np.int64, "missed": np.int64}
+
+
+def frames_table(clip: str, rows: Sequence[dict]) -> pa.Table:
+    """The `frames` table of a clip's `frame_row`s."""
+    columns = {name: np.array([row[name] for row in rows], dtype) for name, dtype in FRAME_ROW_TYPES.items()}
+    return _table("frames", {"clip": _clip_column(clip, len(rows)), **columns})
 
 
 def points_table(frame: LabelledFrame) -> pa.Table:
@@ -95,18 +105,19 @@ def points_table(frame: LabelledFrame) -> pa.Table:
             "time_offset_s": np.asarray(scan.time_offset_s, np.float32),
             "sensor": np.asarray(scan.sensor, np.uint8),
             "head": np.asarray(scan.head, np.uint8),
+            "sweep": np.asarray(scan.sweep, np.uint8),
             "instance_id": np.asarray(scan.instance_id, np.int32),
             "semantic": np.asarray(scan.semantic, np.uint8),
         },
     )
 
 
-def boxes_table(frames: Sequence[LabelledFrame]) -> pa.Table:
-    labels = [f.labels for f in frames]
+def boxes_table(clip: str, indices: Sequence[int], labels: Sequence[FrameLabels]) -> pa.Table:
+    """The `boxes` table of a clip's frames `indices` with their labels."""
     boxes = np.concatenate([np.asarray(lab.boxes, np.float32).reshape(-1, 7) for lab in labels])
-    frame_column = np.concatenate([np.full(len(lab.boxes), f.index, np.int32) for f, lab in zip(frames, labels)])
+    frame_column = np.concatenate([np.full(len(lab.boxes), index, np.int32) for index, lab in zip(indices, labels)])
     columns = {
-        "clip": _clip_column(frames[0].clip, len(frame_column)),
+        "clip": _clip_column(clip, len(frame_column)),
         "frame": frame_column,
         "track_id": np.concatenate([np.asarray(lab.track_id, np.int32) for lab in labels]),
         "team": _categories([lab.team for lab in labels]),
@@ -140,39 +151,125 @@ def sensors_table(sensors: Sequence[SensorInfo]) -> pa.Table:
     )
 
 
-def _write_groups(root: Path, name: str, relative: str, groups: Iterator[pa.Table]) -> FileRecord:
-    """One file of table `name`, one row group per table of `groups` (empty ones too)."""
-    path = root / relative
-    path.parent.mkdir(parents=True, exist_ok=True)
+def _writer(path: Path, name: str) -> pq.ParquetWriter:
+    """A Parquet writer of table `name` with the fixed options that keep bytes reproducible."""
     schema = with_table_metadata(TABLES[name], name)
     floats = [f.name for f in schema if pa.types.is_floating(f.type)]  # byte-stream-split compresses them best
     others = [f.name for f in schema if f.name not in floats]
-    rows = 0
-    with atomic_path(path) as tmp:
-        with pq.ParquetWriter(
-            tmp, schema, compression="zstd", use_byte_stream_split=floats, use_dictionary=others, write_statistics=True,
-            write_page_checksum=True,
-        ) as writer:
-            for group in groups:
-                writer.write_table(group, row_group_size=max(len(group), 1))
-                rows += len(group)
-    return record_file(root, relative, rows)
+    return pq.ParquetWriter(
+        path, schema, compression="zstd", use_byte_stream_split=floats, use_dictionary=others, write_statistics=True,
+        write_page_checksum=True,
+    )
 
 
-def write_parquet_clip(root: Path, frames: Sequence[LabelledFrame]) -> list[FileRecord]:
-    """Write one clip's frames, points and boxes tables; returns their records."""
-    clip = frames[0].clip
-    chunks = [frames[i : i + FRAMES_PER_GROUP] for i in range(0, len(frames), FRAMES_PER_GROUP)]
-    return [
-        _write_groups(root, "frames", table_path("frames", clip), (frames_table(chunk) for chunk in chunks)),
-        _write_groups(root, "points", table_path("points", clip), (points_table(frame) for frame in frames)),
-        _write_groups(root, "boxes", table_path("boxes", clip), (boxes_table(chunk) for chunk in chunks)),
-    ]
+class ParquetClipStream:
+    """One clip's tables written as its frames come: a row group of `points` per frame at once,
+    `frames` and `boxes` in row groups of `FRAMES_PER_GROUP` frames (only their labels are kept
+    meanwhile). Every file lives under a temporary name until `close`; `abort`
+    (or an exception inside `with`) removes them, so a failure leaves no file under a final name."""
+
+    TABLES = CLIP_TABLES
+
+    def __init__(self, root: Path, clip: str):
+        self.root, self.clip = Path(root), clip
+        self._files = contextlib.ExitStack()
+        self._writers: dict[str, pq.ParquetWriter] = {}
+        self._tmp: dict[str, Path] = {}
+        for name in self.TABLES:
+            path = self.root / table_path(name, clip)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            self._tmp[name] = self._files.enter_context(atomic_path(path))
+        self._writers = {name: _writer(self._tmp[name], name) for name in self.TABLES}
+        self._rows = dict.fromkeys(self.TABLES, 0)
+        self._frame_rows: list[dict] = []
+        self._labels: list[tuple[int, FrameLabels]] = []
+
+    def _write(self, name: str, table: pa.Table) -> None:
+        self._writers[name].write_table(table, row_group_size=max(len(table), 1))
+        self._rows[name] += len(table)
+
+    def _flush_labels(self) -> None:
+        if self._frame_rows:
+            self._write("frames", frames_table(self.clip, self._frame_rows))
+            self._write("boxes", boxes_table(self.clip, [i for i, _ in self._labels], [lab for _, lab in self._labels]))
+            self._frame_rows, self._labels = [], []
+
+    def add(self, frame: LabelledFrame) -> None:
+        self._write("points", points_table(frame))
+        self._frame_rows.append(frame_row(frame))
+        self._labels.append((frame.index, frame.labels))
+        if len(self._frame_rows) == FRAMES_PER_GROUP:
+            self._flush_labels()
+
+    def close(self) -> list[FileRecord]:
+        """Finish every file, rename each to its final name; their records."""
+        self._flush_labels()
+        for writer in self._writers.values():
+            writer.close()
+        self._files.close()
+        return [record_file(self.root, table_path(name, self.clip), self._rows[name]) for name in self.TABLES]
+
+    def abort(self) -> None:
+        for writer in self._writers.values():
+            with contextlib.suppress(Exception):
+                writer.close()
+        self._files.__exit__(RuntimeError, RuntimeError("aborted"), None)
+
+
+def labelled_frames(root: Path, clip: str) -> Iterator[LabelledFrame]:
+    """The frames a `ParquetClipStream` wrote under `root`, back as `LabelledFrame`s one at a time
+    (partial clips of `simgen generate`'s shards): written again, they give the same bytes."""
+    from simgen.labels.boxes import FrameLabels
+    from simgen.labels.labelled_frame import LabelledFrame
+    from simgen.render.frame import ScanFrame
+
+    rows = open_table(root / table_path("frames", clip), "frames").read().to_pylist()
+    points = open_table(root / table_path("points", clip), "points")
+    boxes = open_table(root / table_path("boxes", clip), "boxes")
+    for position, row in enumerate(rows):
+        if position % FRAMES_PER_GROUP == 0:  # row groups of `boxes` hold FRAMES_PER_GROUP frames
+            group, offset = boxes.read_row_group(position // FRAMES_PER_GROUP), 0
+        box, offset = group.slice(offset, row["num_boxes"]), offset + row["num_boxes"]
+        point = points.read_row_group(position)
+
+        def column(table: pa.Table, name: str) -> NDArray:
+            return table[name].to_numpy()
+
+        def fixed(name: str, shape: tuple[int, ...]) -> NDArray[np.float32]:
+            return box[name].combine_chunks().flatten().to_numpy().reshape(-1, *shape)
+
+        scan = ScanFrame(
+            points_m=np.stack([column(point, axis) for axis in "xyz"], axis=1),
+            intensity=column(point, "intensity"),
+            time_offset_s=column(point, "time_offset_s"),
+            sensor=column(point, "sensor"),
+            head=column(point, "head"),
+            instance_id=column(point, "instance_id"),
+            semantic=column(point, "semantic"),
+            sweep=column(point, "sweep"),
+            shots=row["shots"],
+            dropped=row["dropped"],
+            missed=row["missed"],
+        )
+        labels = FrameLabels(
+            boxes=np.stack([column(box, name) for name in BOX_FIELDS], axis=1).reshape(-1, 7),
+            track_id=column(box, "track_id"),
+            team=np.array(box["team"].to_pylist(), dtype=np.str_),
+            role=np.array(box["role"].to_pylist(), dtype=np.str_),
+            velocity_mps=fixed("velocity_mps", (3,)),
+            keypoints_m=fixed("keypoints_m", (NUM_KEYPOINTS, 3)),
+            num_points=column(box, "num_points"),
+        )
+        yield LabelledFrame(clip, row["frame"], row["time_s"], row["label_time_s"], scan, labels)
 
 
 def write_parquet_sensors(root: Path, sensors: Sequence[SensorInfo]) -> FileRecord:
     """The dataset's one `sensors` table."""
-    return _write_groups(root, "sensors", SENSORS_PATH, iter([sensors_table(sorted(sensors, key=lambda s: s.sensor_id))]))
+    table = sensors_table(sorted(sensors, key=lambda s: s.sensor_id))
+    (root / SENSORS_PATH).parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(root / SENSORS_PATH) as tmp, _writer(tmp, "sensors") as writer:
+        writer.write_table(table, row_group_size=max(len(table), 1))
+    return record_file(root, SENSORS_PATH, len(table))
 
 
 def open_table(path: Path, name: str) -> pq.ParquetFile:
@@ -267,6 +364,7 @@ class ParquetReader:
             time_offset_s=column(points, "time_offset_s"),
             sensor=column(points, "sensor"),
             head=column(points, "head"),
+            sweep=column(points, "sweep"),
             instance_id=column(points, "instance_id"),
             semantic=column(points, "semantic"),
             team=team,

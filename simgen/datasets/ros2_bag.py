@@ -22,6 +22,7 @@ a time and writes each as it comes.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import io
 from collections.abc import Iterable, Sequence
@@ -246,12 +247,28 @@ def bag_path(clip: str) -> str:
     return f"{clip}.mcap"
 
 
-def write_mcap_clip(root: Path, frames: Sequence[LabelledFrame], sensors: Sequence[SensorInfo]) -> list[FileRecord]:
-    """`<clip>.mcap`; rows = messages."""
-    relative = bag_path(frames[0].clip)
-    root.mkdir(parents=True, exist_ok=True)
-    summary = write_bag(root / relative, (labelled_to_frame(f) for f in frames), [asdict(s) for s in sensors])
-    return [record_file(root, relative, summary.messages)]
+class McapClipStream:
+    """One clip's bag, `<clip>.mcap`, written as its frames come (the dataset writer's stream for
+    format mcap); its record's rows are its messages. `abort` leaves no file under the final name."""
+
+    def __init__(self, root: Path, clip: str, sensors: Sequence[SensorInfo]):
+        self.root, self.relative = Path(root), bag_path(clip)
+        path = self.root / self.relative
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self._files = contextlib.ExitStack()
+        stream = self._files.enter_context(self._files.enter_context(atomic_path(path)).open("wb"))
+        self._bag = BagWriter(stream, [asdict(s) for s in sensors])
+
+    def add(self, frame: LabelledFrame) -> None:
+        self._bag.add(labelled_to_frame(frame))
+
+    def close(self) -> list[FileRecord]:
+        self._bag.finish()
+        self._files.close()
+        return [record_file(self.root, self.relative, self._bag.messages)]
+
+    def abort(self) -> None:
+        self._files.__exit__(RuntimeError, RuntimeError("aborted"), None)
 
 
 def read_bag(stream: BinaryIO) -> dict[str, list]:

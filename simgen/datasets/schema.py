@@ -18,7 +18,7 @@ import pyarrow as pa
 
 from simgen.vocab import BALL_INSTANCE_ID, KEYPOINT_NAMES, NUM_KEYPOINTS, SEMANTIC_NAMES
 
-SCHEMA_VERSION = 2  # 2: `clip` column in every per-clip table, `sensors` once per dataset
+SCHEMA_VERSION = 2  # 2: `clip` and `frame` columns in every per-clip table, `sensors` once per dataset, points.sweep
 METADATA_KEY = b"simgen.dataset"
 PITCH_FRAME = "pitch: origin at the centre spot, x towards the right team's goal, y left, z up; metres"
 BOX_CONVENTION = (
@@ -63,6 +63,7 @@ POINTS = pa.schema(
         _field("time_offset_s", pa.float32(), "shot time since the frame's start", "s"),
         _field("sensor", pa.uint8(), "sensor index in the scenario (sensors.sensor_id)"),
         _field("head", pa.uint8(), "head index in its sensor"),
+        _field("sweep", pa.uint8(), "sweep of the frame the shot belongs to, 0 .. sensors.sweeps_per_frame - 1 (time order)"),
         _field(
             "instance_id",
             pa.int32(),

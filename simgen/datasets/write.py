@@ -1,4 +1,5 @@
-"""Writing a dataset: `write_clip` once per clip (any process, any order), then `finish_dataset` once.
+"""Writing a dataset: `write_clip` (or a streaming `ClipWriter`) once per clip, in any process and
+order, then `finish_dataset` once. Frames go to disk as they come: memory does not grow with a clip.
 
 Clips never share a file (Parquet partitions by clip id, the KITTI-style formats number samples
 by clip index), so clips can be written in parallel; `finish_dataset` then writes what needs them
@@ -7,20 +8,21 @@ all: the train/val ImageSets, the dataset card README.md and, last, manifest.jso
 
 from __future__ import annotations
 
+import itertools
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from simgen import __version__
 from simgen.datasets.card import dataset_card
-from simgen.datasets.kitti import write_kitti_clip, write_placeholder_images
+from simgen.datasets.kitti import KittiClipStream, write_placeholder_images
 from simgen.datasets.manifest import FORMATS, MANIFEST_NAME, ClipEntry, Manifest, dependency_versions, manifest_bytes
-from simgen.datasets.openpcdet import write_openpcdet_clip
-from simgen.datasets.parquet import write_parquet_clip, write_parquet_sensors
+from simgen.datasets.openpcdet import OpenPCDetClipStream
+from simgen.datasets.parquet import ParquetClipStream, write_parquet_sensors
 from simgen.datasets.records import ClipRecord, FileRecord, write_bytes, write_text
-from simgen.datasets.ros2_bag import write_mcap_clip
+from simgen.datasets.ros2_bag import McapClipStream
 from simgen.datasets.samples import sample_name, val_clips
 from simgen.datasets.schema import SCHEMA_VERSION
 from simgen.errors import UserError
@@ -36,50 +38,90 @@ CARD_NAME = "README.md"
 IMAGE_SET_FORMATS = ("kitti", "openpcdet")
 
 
-def check_clip(format: str, frames: Sequence[LabelledFrame], clip_index: int) -> None:
-    """One-line `UserError` for frames that do not make one whole clip, in order."""
-    if format not in FORMATS:
-        raise UserError(f"unknown dataset format {format!r} (choose from {', '.join(FORMATS)})")
-    if not frames:
-        raise UserError(f"clip index {clip_index}: no frames to write")
-    clip = frames[0].clip
-    if not CLIP_ID.match(clip):
-        raise UserError(f"clip id {clip!r}: use a letter, then letters, digits, '_', '.' or '-'")
-    if clip_index < 0:
-        raise UserError(f"clip {clip}: clip index {clip_index} is negative")
-    for position, frame in enumerate(frames):
-        if frame.clip != clip or frame.index != position:
-            raise UserError(
-                f"clip {clip}: frame {position} is frame {frame.index} of clip {frame.clip}, expected the clip's frames in order from 0"
-            )
-        foreign = set(map(str, frame.labels.team)) - set(TEAM_NAMES)
-        if foreign:
-            raise UserError(f"clip {clip}, frame {position}: unknown team {sorted(foreign)[0]!r} (expected {', '.join(TEAM_NAMES)})")
+def check_frame(clip: str, expected_index: int, frame: LabelledFrame) -> None:
+    """One-line `UserError` unless `frame` is frame `expected_index` of `clip`, with known teams."""
+    if frame.clip != clip or frame.index != expected_index:
+        raise UserError(
+            f"clip {clip}: frame {expected_index} is frame {frame.index} of clip {frame.clip}, expected the clip's frames in order"
+            + (" from 0" if expected_index == 0 else "")
+        )
+    foreign = set(map(str, frame.labels.team)) - set(TEAM_NAMES)
+    if foreign:
+        raise UserError(f"clip {clip}, frame {expected_index}: unknown team {sorted(foreign)[0]!r} (expected {', '.join(TEAM_NAMES)})")
+
+
+class ClipWriter:
+    """Streams the frames of one clip (or of a range of its frames) to the format's files as they
+    come, so memory does not grow with the clip's length; `close` returns the `ClipRecord`.
+
+    Use as a context manager: an exception inside removes the files still under temporary names.
+    Frames must come in order from `first_frame`."""
+
+    def __init__(self, root: Path, format: str, clip: str, clip_index: int, sensors: Sequence[SensorInfo], first_frame: int = 0):
+        if format not in FORMATS:
+            raise UserError(f"unknown dataset format {format!r} (choose from {', '.join(FORMATS)})")
+        if not CLIP_ID.match(clip):
+            raise UserError(f"clip id {clip!r}: use a letter, then letters, digits, '_', '.' or '-'")
+        if clip_index < 0:
+            raise UserError(f"clip {clip}: clip index {clip_index} is negative")
+        self.format, self.clip, self.clip_index = format, clip, clip_index
+        self.next_index, self.frames, self.points, self.boxes = first_frame, 0, 0, 0
+        root = Path(root)
+        if format == "parquet":
+            self._stream = ParquetClipStream(root, clip)
+        elif format == "mcap":
+            self._stream = McapClipStream(root, clip, sensors)
+        elif format == "openpcdet":
+            self._stream = OpenPCDetClipStream(root, clip_index)
+        else:
+            self._stream = KittiClipStream(root, clip_index, tracking=format == "kitti_tracking")
+
+    def add(self, frame: LabelledFrame) -> None:
+        check_frame(self.clip, self.next_index, frame)
+        self._stream.add(frame)
+        self.next_index += 1
+        self.frames += 1
+        self.points += len(frame.scan.points_m)
+        self.boxes += len(frame.labels.boxes)
+
+    def close(self) -> ClipRecord:
+        if not self.frames:
+            raise UserError(f"clip index {self.clip_index}: no frames to write")
+        files = self._stream.close()
+        return ClipRecord(
+            format=self.format,
+            clip=self.clip,
+            clip_index=self.clip_index,
+            frames=self.frames,
+            points=self.points,
+            boxes=self.boxes,
+            files=tuple(sorted(files, key=lambda f: f.path)),
+        )
+
+    def __enter__(self) -> ClipWriter:
+        return self
+
+    def __exit__(self, kind, error, traceback) -> None:
+        if kind is not None:
+            self._stream.abort()
 
 
 def write_clip(
-    root: Path, format: str, frames: Sequence[LabelledFrame], sensors: Sequence[SensorInfo], clip_index: int
+    root: Path, format: str, frames: Iterable[LabelledFrame], sensors: Sequence[SensorInfo], clip_index: int
 ) -> ClipRecord:
-    """Write one clip's files under `root` (atomically, each); returns what `finish_dataset` needs."""
-    check_clip(format, frames, clip_index)
-    root = Path(root)
-    if format == "parquet":
-        files = write_parquet_clip(root, frames)
-    elif format == "openpcdet":
-        files = write_openpcdet_clip(root, frames, clip_index)
-    elif format == "mcap":
-        files = write_mcap_clip(root, frames, sensors)
-    else:
-        files = write_kitti_clip(root, frames, clip_index, tracking=format == "kitti_tracking")
-    return ClipRecord(
-        format=format,
-        clip=frames[0].clip,
-        clip_index=clip_index,
-        frames=len(frames),
-        points=sum(len(f.scan.points_m) for f in frames),
-        boxes=sum(len(f.labels.boxes) for f in frames),
-        files=tuple(sorted(files, key=lambda f: f.path)),
-    )
+    """Write one clip's frames (any iterable: a generator streams) under `root`, each file atomically;
+    returns what `finish_dataset` needs."""
+    frames = iter(frames)
+    first = next(frames, None)
+    if first is None:
+        if format not in FORMATS:
+            raise UserError(f"unknown dataset format {format!r} (choose from {', '.join(FORMATS)})")
+        raise UserError(f"clip index {clip_index}: no frames to write")
+    check_frame(first.clip, 0, first)
+    with ClipWriter(root, format, first.clip, clip_index, sensors) as writer:
+        for frame in itertools.chain([first], frames):
+            writer.add(frame)
+        return writer.close()
 
 
 def _image_sets(root: Path, clips: Sequence[ClipRecord]) -> list[FileRecord]:

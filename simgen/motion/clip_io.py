@@ -7,6 +7,7 @@ pitch frame are in the field and schema metadata, so pandas, polars and duckdb r
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -55,10 +56,11 @@ def _fixed_list(values: np.ndarray, width: int) -> pa.FixedSizeListArray:
     return pa.FixedSizeListArray.from_arrays(flat, width)
 
 
-def clip_to_table(clip: MotionClip) -> pa.Table:
+def clip_to_table(clip: MotionClip, first_frame: int = 0) -> pa.Table:
+    """The clip's rows; frames numbered from `first_frame` (a part of a longer clip)."""
     frames, humanoids = clip.num_frames, clip.num_humanoids
     columns = {
-        "frame": np.repeat(np.arange(frames, dtype=np.int32), humanoids),
+        "frame": np.repeat(np.arange(first_frame, first_frame + frames, dtype=np.int32), humanoids),
         "time_s": np.repeat(clip.time_s, humanoids),
         "track_id": np.tile(clip.track_id, frames),
         "team": pa.array(np.tile(clip.team, frames)).dictionary_encode(),
@@ -80,12 +82,27 @@ def clip_to_table(clip: MotionClip) -> pa.Table:
 
 
 def write_clip(clip: MotionClip, path: str | Path) -> Path:
-    """Write atomically (temporary name, then rename); row groups of whole frames."""
+    """Write atomically (temporary name, then rename); row groups of whole frames, built one at a
+    time (a whole match's table at once would cost several times its arrays in memory)."""
     path = Path(path)
-    rows_per_group = clip.num_humanoids * max(1, 4096 // max(clip.num_humanoids, 1))
+    frames_per_group = max(1, 4096 // max(clip.num_humanoids, 1))
+    starts = range(0, max(clip.num_frames, 1), frames_per_group)
     with atomic_path(path) as tmp:
-        pq.write_table(clip_to_table(clip), tmp, compression="zstd", row_group_size=rows_per_group)
+        writer = None
+        for start in starts:
+            group = clip_to_table(_frames(clip, start, start + frames_per_group), first_frame=start)
+            writer = writer or pq.ParquetWriter(tmp, group.schema, compression="zstd")
+            writer.write_table(group, row_group_size=max(len(group), 1))
+        writer.close()
     return path
+
+
+def _frames(clip: MotionClip, start: int, stop: int) -> MotionClip:
+    """Frames start .. stop - 1 of a clip (views)."""
+    return dataclasses.replace(
+        clip, time_s=clip.time_s[start:stop], keypoints_m=clip.keypoints_m[start:stop], ball_m=clip.ball_m[start:stop],
+        engine_position_m=clip.engine_position_m[start:stop],
+    )
 
 
 def read_clip(path: str | Path) -> MotionClip:

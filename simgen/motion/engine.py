@@ -9,7 +9,9 @@ positions of the 12 body parts of every humanoid and the ball; we keep every
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import os
+import pkgutil
 from typing import Callable
 
 import numpy as np
@@ -39,12 +41,19 @@ def _import_engine():
     return gf_config, football_action_set, football_env_core
 
 
+def engine_levels() -> list[str]:
+    """The GRF levels (modules of gfootball.scenarios) of the installed engine, found without
+    importing it (`simgen validate` stays fast)."""
+    spec = importlib.util.find_spec("gfootball")
+    if spec is None or not spec.submodule_search_locations:
+        raise UserError("the football engine is not installed (no gfootball); run `make setup`")
+    folders = [os.path.join(folder, "scenarios") for folder in spec.submodule_search_locations]
+    return [module.name for module in pkgutil.iter_modules(folders)]
+
+
 def check_level(level: str) -> None:
     """Raise `UserError` unless the installed engine offers this GRF level (scenario module)."""
-    _import_engine()
-    from gfootball.env import scenario_builder
-
-    if level not in scenario_builder.all_scenarios():
+    if level not in engine_levels():
         raise UserError(f"motion.level: unknown GRF level '{level}'")
 
 
@@ -143,8 +152,9 @@ def capture_motion(
                     continue
                 at_step_end = sub == PHYSICS_STEPS_PER_ENGINE_STEP - 1
                 times.append(physics_step * PHYSICS_STEP_S)
-                keypoints.append(samples[sub, :-1].reshape(num_humanoids, NUM_KEYPOINTS, 3))
-                ball.append(samples[sub, -1])
+                # Copies: a view would keep the step's whole buffer (10 samples) alive all clip long.
+                keypoints.append(samples[sub, :-1].reshape(num_humanoids, NUM_KEYPOINTS, 3).copy())
+                ball.append(samples[sub, -1].copy())
                 positions.append(
                     _engine_positions(info, num_humanoids)
                     if at_step_end
@@ -157,9 +167,9 @@ def capture_motion(
         engine.close()
     return MotionClip(
         time_s=np.round(np.array(times, dtype=np.float64), 6),
-        keypoints_m=np.stack(keypoints).astype(np.float32),
-        ball_m=np.stack(ball).astype(np.float32),
-        engine_position_m=np.stack(positions).astype(np.float32),
+        keypoints_m=np.stack(keypoints).astype(np.float32, copy=False),
+        ball_m=np.stack(ball).astype(np.float32, copy=False),
+        engine_position_m=np.stack(positions).astype(np.float32, copy=False),
         track_id=track_id,
         team=team,
         role=role,

@@ -51,19 +51,26 @@ def frame_count(scenario: Scenario, clip: MotionClip) -> int:
 
 def render_clip(scenario: Scenario, clip: MotionClip, clip_index: int) -> Iterator[LabelledFrame]:
     """Yield the clip's labelled frames in order."""
+    return render_frames(scenario, clip, clip_index, 0, frame_count(scenario, clip))
+
+
+def render_frames(scenario: Scenario, clip: MotionClip, clip_index: int, first: int, stop: int) -> Iterator[LabelledFrame]:
+    """Yield frames `first` .. `stop - 1` of the clip, in order: the same frames, bit for bit, as
+    `render_clip` yields there (a shard of a clip). Labels are computed `LABEL_CHUNK_FRAMES` at a
+    time on chunks aligned to the clip's frame 0 whatever `first` is."""
     scene = scenario.scene
     world = World(clip, build_static_scene(scene.goals, scene.surroundings, scene.net_transmission))
     rate = scenario.scan.frame_rate_hz
     start = float(clip.time_s[0])
     specs = scenario.sensor_specs()
-    for index in range(frame_count(scenario, clip)):
-        if index % LABEL_CHUNK_FRAMES == 0:  # labels of the next frames at once
-            label_times = start + (index + np.arange(LABEL_CHUNK_FRAMES) + 0.5) / rate
+    for index in range(first, stop):
+        j = index % LABEL_CHUNK_FRAMES
+        if j == 0 or index == first:  # labels of the chunk's frames at once
+            label_times = start + (index - j + np.arange(LABEL_CHUNK_FRAMES) + 0.5) / rate
             keypoints, velocity, boxes = label_poses(clip, label_times)
         frame_start = start + index / rate
         rays = frame_rays(scenario, specs, index, start)
         rng = np.random.default_rng(np.random.SeedSequence([scenario.seed, clip_index, index]))
         scan = render_frame(world, rays, frame_start, scenario.noise, rng)
-        j = index % LABEL_CHUNK_FRAMES
         labels = frame_labels(boxes[j], keypoints[j], velocity[j], clip.track_id, clip.team, clip.role, scan.instance_id)
         yield LabelledFrame(clip_name(clip_index), index, frame_start, float(label_times[j]), scan, labels)

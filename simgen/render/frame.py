@@ -12,7 +12,7 @@ the rays that may hit a body part or a goal, or every ray when boards or a stand
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -45,6 +45,11 @@ class ScanFrame:
     shots: int
     dropped: int  # returns lost to random dropout
     missed: int  # shots with no return in range (sky, too near, too far for the reflectivity)
+    sweep: NDArray[np.uint8] = field(default=None)  # (P,) sweep of the frame the shot belongs to; default all 0
+
+    def __post_init__(self) -> None:
+        if self.sweep is None:  # one sweep per frame
+            object.__setattr__(self, "sweep", np.zeros(len(self.points_m), np.uint8))
 
 
 def expand_subrays(rays: Rays, noise: NoiseConfig) -> Rays:
@@ -59,7 +64,7 @@ def expand_subrays(rays: Rays, noise: NoiseConfig) -> Rays:
     spread = d[:, None] + offsets[None, :, 0, None] * horizontal[:, None] + offsets[None, :, 1, None] * vertical[:, None]
     spread /= np.linalg.norm(spread, axis=2, keepdims=True)
     shot = np.repeat(np.arange(len(d)), len(offsets))
-    return Rays(rays.origin_m[shot], spread.reshape(-1, 3), rays.time_s[shot], rays.sensor[shot], rays.head[shot])
+    return Rays(rays.origin_m[shot], spread.reshape(-1, 3), rays.time_s[shot], rays.sensor[shot], rays.head[shot], rays.sweep[shot])
 
 
 @numba.njit(cache=True)
@@ -186,6 +191,7 @@ def render_frame(world: World, rays: Rays, frame_start_s: float, noise: NoiseCon
         time_offset_s=(rays.time_s[shot] - frame_start_s).astype(np.float32),
         sensor=rays.sensor[shot],
         head=rays.head[shot],
+        sweep=rays.sweep[shot],
         instance_id=hit["instance"][k],
         semantic=hit["semantic"][k],
         shots=len(rays.time_s),

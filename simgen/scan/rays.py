@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,3 +17,8 @@ class Rays:
     time_s: NDArray[np.float64]  # (N,) game time of each shot
     sensor: NDArray[np.uint8]  # (N,) index of the sensor in the scenario
     head: NDArray[np.uint8]  # (N,) index of the head in its sensor
+    sweep: NDArray[np.uint8] = field(default=None)  # (N,) sweep of the frame (0 .. sweeps_per_frame - 1); default all 0
+
+    def __post_init__(self) -> None:
+        if self.sweep is None:  # one sweep per frame
+            object.__setattr__(self, "sweep", np.zeros(len(self.time_s), np.uint8))

@@ -1,0 +1,101 @@
+"""Streaming benchmark: peak memory against frames per clip, where a frame's time goes, and a whole
+match's projected wall time, on `scenarios/full_match.yaml` (one Mid-100 x1, one clip).
+
+1. Peak RSS of `simgen generate --clips 1 --frames N --workers 1` (one process: capture, rendering
+   and writing all in it) for each N; baseline: the smallest N, same run. Frames are streamed to
+   disk, so the ratio should stay near 1 (the issue's target: within 20 %).
+2. For the largest N, frames per second of one core: end to end (`simgen generate`, 1 worker),
+   engine capture only (`capture_motion` of the motion those frames need) and rendering only
+   (`render_frames`, labels included, nothing written), same frames, same run. End to end minus
+   the two is what writing, hashing and the manifest cost.
+3. A whole match (54,000 frames) projected on this machine with W workers: the capture is one
+   engine playing in order (capture time x 54,000 / N); the rest is split over the workers' shards.
+Writes benchmarks/results/stream.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIO = ROOT / "scenarios" / "full_match.yaml"
+MATCH_FRAMES = 54_000
+
+
+def _generate(out: Path, frames: int) -> tuple[float, float]:
+    """Wall seconds and peak RSS (MiB) of one `simgen generate` process."""
+    command = [sys.executable, "-m", "simgen.cli", "generate", str(SCENARIO), "-o", str(out), "--clips", "1", "--frames", str(frames)]
+    started = time.perf_counter()
+    process = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    _, status, usage = os.wait4(process.pid, 0)
+    seconds = time.perf_counter() - started
+    if os.waitstatus_to_exitcode(status) != 0:
+        raise SystemExit(f"simgen generate --frames {frames} failed")
+    return seconds, usage.ru_maxrss / 1024  # kilobytes on Linux
+
+
+def _capture_and_render(frames: int) -> tuple[float, float]:
+    """Seconds to capture the motion of `frames` frames, and to render them (labels included)."""
+    from simgen.motion.engine import capture_motion
+    from simgen.pipeline.clip import engine_seed, render_frames
+    from simgen.scenario import load_scenario, parse_scenario
+
+    data = load_scenario(SCENARIO).model_dump()
+    data["scan"]["frames"] = frames
+    data["motion"]["frames"] = int(frames / data["scan"]["frame_rate_hz"] * data["motion"]["capture_hz"] + 2)
+    scenario = parse_scenario(data)
+    started = time.perf_counter()
+    clip = capture_motion(scenario.motion, engine_seed(scenario, 0))
+    capture_s = time.perf_counter() - started
+    started = time.perf_counter()
+    for _ in render_frames(scenario, clip, 0, 0, frames):
+        pass
+    return capture_s, time.perf_counter() - started
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", default="100,1000,6000", help="frames per clip, comma-separated (default 100,1000,6000)")
+    parser.add_argument("--workers", type=int, default=2, help="workers of the projected whole-match run (default 2)")
+    args = parser.parse_args()
+    sizes = sorted(int(n) for n in args.frames.split(","))
+    _capture_and_render(3)  # compile the numba kernels once, outside every measure
+    with tempfile.TemporaryDirectory() as tmp:
+        runs = {n: _generate(Path(tmp) / f"f{n}", n) for n in sizes}
+    largest = sizes[-1]
+    capture_s, render_s = _capture_and_render(largest)
+    e2e_s, base_rss = runs[largest][0], runs[sizes[0]][1]
+    rss_rows = [f"| {n:,} | {rss:,.0f} | {rss / base_rss:.2f} |" for n, (_, rss) in runs.items()]
+    rest_s = max(e2e_s - capture_s, 0.0)
+    scale = MATCH_FRAMES / largest
+    match_s = capture_s * scale + rest_s * scale / args.workers
+    rate_rows = [
+        f"| end to end (`simgen generate`, 1 worker) | {largest / e2e_s:.1f} | 1.00 |",
+        f"| engine capture only | {largest / capture_s:.1f} | {e2e_s / capture_s:.2f} |",
+        f"| rendering + labels only | {largest / render_s:.1f} | {e2e_s / render_s:.2f} |",
+        f"| writing, hashing, manifest (end to end - capture - rendering) | {largest / max(e2e_s - capture_s - render_s, 1e-9):.1f} | "
+        f"{e2e_s / max(e2e_s - capture_s - render_s, 1e-9):.2f} |",
+    ]
+    text = (
+        "# Streaming benchmark\n\n"
+        f"`simgen generate scenarios/full_match.yaml --clips 1 --frames N --workers 1` on this machine ({os.cpu_count()} cores, shared).\n\n"
+        "Peak RSS of the one process (capture, rendering, writing), against the smallest N of the same run:\n\n"
+        "| frames per clip | peak RSS, MiB | ratio |\n|---|---|---|\n" + "\n".join(rss_rows) + "\n\n"
+        f"Where {largest:,} frames' time goes, frames/s of one core (ratio: end to end seconds / the part's seconds):\n\n"
+        "| part | frames/s | ratio |\n|---|---|---|\n" + "\n".join(rate_rows) + "\n\n"
+        f"Whole match ({MATCH_FRAMES:,} frames) projected from the {largest:,}-frame run with {args.workers} workers: capture "
+        f"{capture_s * scale / 3600:.2f} h (one engine, in order) + the rest {rest_s * scale / args.workers / 3600:.2f} h "
+        f"(shards over {args.workers} workers) = {match_s / 3600:.2f} h.\n"
+    )
+    print(text)
+    (ROOT / "benchmarks" / "results" / "stream.md").write_text(text)
+
+
+if __name__ == "__main__":
+    main()
