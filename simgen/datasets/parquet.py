@@ -216,6 +216,15 @@ class ParquetClipStream:
         self._files.__exit__(RuntimeError, RuntimeError("aborted"), None)
 
 
+def _column(table: pa.Table, name: str) -> NDArray:
+    return table[name].to_numpy()
+
+
+def _fixed(table: pa.Table, name: str, shape: tuple[int, ...]) -> NDArray[np.float32]:
+    """A fixed-size list column as an (N, *shape) float32 array."""
+    return table[name].combine_chunks().flatten().to_numpy().reshape(-1, *shape)
+
+
 def labelled_frames(root: Path, clip: str) -> Iterator[LabelledFrame]:
     """The frames a `ParquetClipStream` wrote under `root`, back as `LabelledFrame`s one at a time
     (partial clips of `simgen generate`'s shards): written again, they give the same bytes."""
@@ -232,33 +241,27 @@ def labelled_frames(root: Path, clip: str) -> Iterator[LabelledFrame]:
         box, offset = group.slice(offset, row["num_boxes"]), offset + row["num_boxes"]
         point = points.read_row_group(position)
 
-        def column(table: pa.Table, name: str) -> NDArray:
-            return table[name].to_numpy()
-
-        def fixed(name: str, shape: tuple[int, ...]) -> NDArray[np.float32]:
-            return box[name].combine_chunks().flatten().to_numpy().reshape(-1, *shape)
-
         scan = ScanFrame(
-            points_m=np.stack([column(point, axis) for axis in "xyz"], axis=1),
-            intensity=column(point, "intensity"),
-            time_offset_s=column(point, "time_offset_s"),
-            sensor=column(point, "sensor"),
-            head=column(point, "head"),
-            instance_id=column(point, "instance_id"),
-            semantic=column(point, "semantic"),
-            sweep=column(point, "sweep"),
+            points_m=np.stack([_column(point, axis) for axis in "xyz"], axis=1),
+            intensity=_column(point, "intensity"),
+            time_offset_s=_column(point, "time_offset_s"),
+            sensor=_column(point, "sensor"),
+            head=_column(point, "head"),
+            instance_id=_column(point, "instance_id"),
+            semantic=_column(point, "semantic"),
+            sweep=_column(point, "sweep"),
             shots=row["shots"],
             dropped=row["dropped"],
             missed=row["missed"],
         )
         labels = FrameLabels(
-            boxes=np.stack([column(box, name) for name in BOX_FIELDS], axis=1).reshape(-1, 7),
-            track_id=column(box, "track_id"),
+            boxes=np.stack([_column(box, name) for name in BOX_FIELDS], axis=1).reshape(-1, 7),
+            track_id=_column(box, "track_id"),
             team=np.array(box["team"].to_pylist(), dtype=np.str_),
             role=np.array(box["role"].to_pylist(), dtype=np.str_),
-            velocity_mps=fixed("velocity_mps", (3,)),
-            keypoints_m=fixed("keypoints_m", (NUM_KEYPOINTS, 3)),
-            num_points=column(box, "num_points"),
+            velocity_mps=_fixed(box, "velocity_mps", (3,)),
+            keypoints_m=_fixed(box, "keypoints_m", (NUM_KEYPOINTS, 3)),
+            num_points=_column(box, "num_points"),
         )
         yield LabelledFrame(clip, row["frame"], row["time_s"], row["label_time_s"], scan, labels)
 
@@ -345,31 +348,25 @@ class ParquetReader:
         frame_row = tables.frames.slice(index, 1).to_pylist()[0]
         team = np.array(boxes["team"].to_pylist(), dtype=np.str_)
 
-        def column(table: pa.Table, name: str) -> NDArray:
-            return table[name].to_numpy()
-
-        def fixed(name: str, shape: tuple[int, ...]) -> NDArray[np.float32]:
-            return boxes[name].combine_chunks().flatten().to_numpy().reshape(-1, *shape)
-
         return Frame(
             clip=clip,
             index=index,
-            points_m=np.stack([column(points, axis) for axis in "xyz"], axis=1),
-            intensity=column(points, "intensity"),
-            boxes=np.stack([column(boxes, name) for name in BOX_FIELDS], axis=1).reshape(-1, 7),
+            points_m=np.stack([_column(points, axis) for axis in "xyz"], axis=1),
+            intensity=_column(points, "intensity"),
+            boxes=np.stack([_column(boxes, name) for name in BOX_FIELDS], axis=1).reshape(-1, 7),
             class_name=class_names(team),
-            track_id=column(boxes, "track_id"),
+            track_id=_column(boxes, "track_id"),
             time_s=frame_row["time_s"],
             label_time_s=frame_row["label_time_s"],
-            time_offset_s=column(points, "time_offset_s"),
-            sensor=column(points, "sensor"),
-            head=column(points, "head"),
-            sweep=column(points, "sweep"),
-            instance_id=column(points, "instance_id"),
-            semantic=column(points, "semantic"),
+            time_offset_s=_column(points, "time_offset_s"),
+            sensor=_column(points, "sensor"),
+            head=_column(points, "head"),
+            sweep=_column(points, "sweep"),
+            instance_id=_column(points, "instance_id"),
+            semantic=_column(points, "semantic"),
             team=team,
             role=np.array(boxes["role"].to_pylist(), dtype=np.str_),
-            velocity_mps=fixed("velocity_mps", (3,)),
-            keypoints_m=fixed("keypoints_m", (NUM_KEYPOINTS, 3)),
-            num_points=column(boxes, "num_points"),
+            velocity_mps=_fixed(boxes, "velocity_mps", (3,)),
+            keypoints_m=_fixed(boxes, "keypoints_m", (NUM_KEYPOINTS, 3)),
+            num_points=_column(boxes, "num_points"),
         )
