@@ -100,7 +100,7 @@ def directions_exact(params: RisleyParams, t_s: NDArray[np.float64]) -> NDArray[
     return np.stack(trace(params, np.cos(th1), np.sin(th1), np.cos(th2), np.sin(th2)), axis=1)
 
 
-def directions(params: RisleyParams, t_s: NDArray[np.float64]) -> NDArray[np.float32]:
+def directions(params: RisleyParams, t_s: NDArray[np.float64], clock: tuple[int, float] | None = None) -> NDArray[np.float32]:
     """(N, 3) float32 unit directions, head frame: `trace` in a compiled loop, fast.
 
     The same optics as `trace`, expanded for prism 1's cone (x A, lateral B) and prism 2's wedge
@@ -108,49 +108,68 @@ def directions(params: RisleyParams, t_s: NDArray[np.float64]) -> NDArray[np.flo
       cos_in = A C + B D cos(theta1 - theta2),  k = sqrt(1 - eta^2 + eta^2 cos_in^2) - eta cos_in
       x = sqrt(1 - n^2 + n^2 (eta A + k C)^2),  (y, z) = B (cos, sin) theta1 + n D k (cos, sin) theta2
     in float64, stored as float32 (within 1e-5 deg of `trace`). Phases are reduced to one turn in
-    float64, so they stay exact at any time; on evenly spaced times (a head's shot clock) the prism
-    angles' cosines and sines advance by a fixed rotation, taken exactly again every `_ANCHOR` shots.
+    float64, so they stay exact at any time. With `clock` = (first shot index, shots per second), the
+    times are a head's shot clock, t_s[i] = (first + i) / rate: the prism angles are taken exactly at
+    every shot index divisible by `_ANCHOR` and advanced by a fixed rotation in between, so a shot's
+    direction depends on its index alone, whatever window asks for it. Without, every angle is exact.
     """
     t_s = np.ascontiguousarray(t_s, np.float64)
     out = np.empty((len(t_s), 3), np.float32)
     A, B = _prism1_cone(params)
     alpha2 = np.radians(params.wedge_deg[1])
     turns = np.array([(rpm / 60.0, phase / 360.0) for rpm, phase in zip(params.rpm, params.phase_deg)], np.float64)
-    _trace_shots(t_s, A, B, float(np.cos(alpha2)), float(np.sin(alpha2)), float(params.index), turns, out)
+    optics = (A, B, float(np.cos(alpha2)), float(np.sin(alpha2)), float(params.index))
+    if clock is None:
+        _trace_times(t_s, *optics, turns, out)
+    else:
+        _trace_clock(int(clock[0]), len(t_s), float(clock[1]), *optics, turns, out)
     return out
 
 
-_ANCHOR = 64  # shots between exact evaluations of the prism angles on an even clock
-_EVEN_S = 1e-11  # times within this of an even clock count as on it (angle error < 1e-8 rad)
+_ANCHOR = 64  # shots between exact evaluations of the prism angles on a shot clock
 
 
 @numba.njit(cache=True)
-def _trace_shots(t_s, A, B, C, D, n, turns, out):
-    """`directions` into out (N, 3); turns (2, 2): per prism, turns per second and phase in turns."""
+def _angles(t, turns):
+    """cos, sin of both prisms' angles at time t (s), phases reduced to one turn in float64."""
+    angle1 = 2.0 * np.pi * ((turns[0, 0] * t + turns[0, 1]) % 1.0)
+    angle2 = 2.0 * np.pi * ((turns[1, 0] * t + turns[1, 1]) % 1.0)
+    return np.cos(angle1), np.sin(angle1), np.cos(angle2), np.sin(angle2)
+
+
+@numba.njit(cache=True)
+def _emit(c1, s1, c2, s2, A, B, C, D, n, out, k):
+    """The direction for prism angles (c1, s1), (c2, s2) into out[k]."""
     eta = 1.0 / n
-    for start in range(0, len(t_s), _ANCHOR):
-        stop = min(start + _ANCHOR, len(t_s))
-        step = (t_s[stop - 1] - t_s[start]) / (stop - 1 - start) if stop - start > 1 else 0.0
-        even = True
-        for k in range(start, stop):
-            even = even and abs(t_s[k] - (t_s[start] + (k - start) * step)) <= _EVEN_S
-        c1 = s1 = c2 = s2 = 0.0
-        for k in range(start, stop):
-            if k == start or not even:  # exact angles
-                t = t_s[k]
-                angle1 = 2.0 * np.pi * ((turns[0, 0] * t + turns[0, 1]) % 1.0)
-                angle2 = 2.0 * np.pi * ((turns[1, 0] * t + turns[1, 1]) % 1.0)
-                c1, s1, c2, s2 = np.cos(angle1), np.sin(angle1), np.cos(angle2), np.sin(angle2)
-                if k == start:
-                    rc1, rs1 = np.cos(2.0 * np.pi * turns[0, 0] * step), np.sin(2.0 * np.pi * turns[0, 0] * step)
-                    rc2, rs2 = np.cos(2.0 * np.pi * turns[1, 0] * step), np.sin(2.0 * np.pi * turns[1, 0] * step)
-            else:  # one clock step further
-                c1, s1 = c1 * rc1 - s1 * rs1, s1 * rc1 + c1 * rs1
-                c2, s2 = c2 * rc2 - s2 * rs2, s2 * rc2 + c2 * rs2
-            cos_in = A * C + B * D * (c1 * c2 + s1 * s2)
-            k_out = np.sqrt(1.0 - eta * eta + eta * eta * cos_in * cos_in) - eta * cos_in
-            u = eta * A + k_out * C
-            lateral = n * D * k_out
-            out[k, 0] = np.sqrt(1.0 - n * n + n * n * u * u)
-            out[k, 1] = B * c1 + lateral * c2
-            out[k, 2] = B * s1 + lateral * s2
+    cos_in = A * C + B * D * (c1 * c2 + s1 * s2)
+    k_out = np.sqrt(1.0 - eta * eta + eta * eta * cos_in * cos_in) - eta * cos_in
+    u = eta * A + k_out * C
+    lateral = n * D * k_out
+    out[k, 0] = np.sqrt(1.0 - n * n + n * n * u * u)
+    out[k, 1] = B * c1 + lateral * c2
+    out[k, 2] = B * s1 + lateral * s2
+
+
+@numba.njit(cache=True)
+def _trace_times(t_s, A, B, C, D, n, turns, out):
+    """`directions` at arbitrary times: every angle exact."""
+    for k in range(len(t_s)):
+        c1, s1, c2, s2 = _angles(t_s[k], turns)
+        _emit(c1, s1, c2, s2, A, B, C, D, n, out, k)
+
+
+@numba.njit(cache=True)
+def _trace_clock(first, count, rate_hz, A, B, C, D, n, turns, out):
+    """`directions` of shots first .. first + count - 1 of a clock at rate_hz: exact angles at every
+    index divisible by _ANCHOR (starting before `first` if need be), one clock step of rotation between."""
+    r1, r2 = 2.0 * np.pi * turns[0, 0] / rate_hz, 2.0 * np.pi * turns[1, 0] / rate_hz
+    rc1, rs1, rc2, rs2 = np.cos(r1), np.sin(r1), np.cos(r2), np.sin(r2)
+    c1 = s1 = c2 = s2 = 0.0
+    for shot in range(first - first % _ANCHOR, first + count):
+        if shot % _ANCHOR == 0:
+            c1, s1, c2, s2 = _angles(shot / rate_hz, turns)
+        else:
+            c1, s1 = c1 * rc1 - s1 * rs1, s1 * rc1 + c1 * rs1
+            c2, s2 = c2 * rc2 - s2 * rs2, s2 * rc2 + c2 * rs2
+        if shot >= first:
+            _emit(c1, s1, c2, s2, A, B, C, D, n, out, shot - first)

@@ -14,7 +14,7 @@ import numpy as np
 from scan_patterns import replay, risley, rose
 from scan_patterns.sensors import HeadSpec, SensorSpec
 from scan_patterns.shots import Shots, concatenate, head_rotation, make_shots, rotate
-from scan_patterns.timebase import shot_times
+from scan_patterns.timebase import first_shot, shot_times
 
 
 def _check_density(density: float) -> None:
@@ -22,11 +22,12 @@ def _check_density(density: float) -> None:
         raise ValueError(f"density must be a positive number, got {density}")
 
 
-def pattern_directions(head: HeadSpec, t_local_s: np.ndarray) -> np.ndarray:
-    """(N, 3) float32 head-frame directions of the head's pattern at head-local times (s)."""
+def pattern_directions(head: HeadSpec, t_local_s: np.ndarray, clock: tuple[int, float] | None = None) -> np.ndarray:
+    """(N, 3) float32 head-frame directions of the head's pattern at head-local times (s); `clock`:
+    (first shot index, shots per second) when the times are the head's shot clock."""
     model = head.model
     if head.pattern == "risley":
-        return risley.directions(model, t_local_s)
+        return risley.directions(model, t_local_s, clock)
     if head.pattern == "rose":
         return rose.directions(model, head.fov_deg, t_local_s)
     return replay.directions(model, t_local_s)
@@ -36,8 +37,10 @@ def head_shots(head: HeadSpec, t0_s: float, t1_s: float, density: float = 1.0, i
     """Shots of one head in (t0_s, t1_s], directions in the head frame, `head` column = `index`."""
     _check_density(density)
     offset = head.time_offset_s
-    t_local = shot_times(t0_s + offset, t1_s + offset, head.shots_per_s * density)
-    return make_shots(t_local - offset, pattern_directions(head, t_local), t0_s, t1_s, index)
+    rate = head.shots_per_s * density
+    t_local = shot_times(t0_s + offset, t1_s + offset, rate)
+    clock = (first_shot(t0_s + offset, rate), rate)
+    return make_shots(t_local - offset, pattern_directions(head, t_local, clock), t0_s, t1_s, index)
 
 
 def shots(sensor: SensorSpec, t0_s: float, t1_s: float, density: float = 1.0) -> Shots:

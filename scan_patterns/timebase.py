@@ -15,12 +15,16 @@ from numpy.typing import NDArray
 _EPS = 1e-6  # shot counts within this of an integer are that integer (float rounding of t * rate)
 
 
-def shot_times(t0_s: float, t1_s: float, rate_hz: float) -> NDArray[np.float64]:
-    """Times (s) of the shots in (t0, t1] on a clock firing at `rate_hz`."""
+def first_shot(t0_s: float, rate_hz: float) -> int:
+    """Index k of the first shot in (t0, ...] on a clock firing at `rate_hz` (shot k at k / rate)."""
     if not rate_hz > 0:
         raise ValueError(f"shot rate must be positive, got {rate_hz}")
-    first = math.floor(t0_s * rate_hz + _EPS) + 1
-    stop = math.floor(t1_s * rate_hz + _EPS) + 1
+    return math.floor(t0_s * rate_hz + _EPS) + 1
+
+
+def shot_times(t0_s: float, t1_s: float, rate_hz: float) -> NDArray[np.float64]:
+    """Times (s) of the shots in (t0, t1] on a clock firing at `rate_hz`: shot k at k / rate."""
+    first, stop = first_shot(t0_s, rate_hz), first_shot(t1_s, rate_hz)
     return np.arange(first, max(first, stop), dtype=np.float64) / rate_hz
 
 
