@@ -43,7 +43,7 @@ class DatasetFiles:
 
     def path(self, relative: str) -> Path:
         """The file's path, its checksum verified (once)."""
-        record = self._record(relative)
+        self._record(relative)  # refuses a file the manifest does not list
         path = self.root / relative
         if self.verify and relative not in self._checked:
             self._check(relative, path.stat().st_size, sha256_file(path))
