@@ -31,13 +31,15 @@ MATCH_FRAMES = 54_000
 def _generate(out: Path, frames: int) -> tuple[float, float]:
     """Wall seconds and peak RSS (MiB) of one `simgen generate` process."""
     command = [sys.executable, "-m", "simgen.cli", "generate", str(SCENARIO), "-o", str(out), "--clips", "1", "--frames", str(frames)]
+    report = out.parent / f"usage-{frames}"
+    launcher = [sys.executable, str(ROOT / "benchmarks" / "measure_child.py"), str(report)]  # keeps this process's RSS out
     started = time.perf_counter()
-    process = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    _, status, usage = os.wait4(process.pid, 0)
+    subprocess.run([*launcher, *command], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
     seconds = time.perf_counter() - started
-    if os.waitstatus_to_exitcode(status) != 0:
+    code, peak_bytes, _ = report.read_text().split()
+    if code != "0":
         raise SystemExit(f"simgen generate --frames {frames} failed")
-    return seconds, usage.ru_maxrss / 1024  # kilobytes on Linux
+    return seconds, int(peak_bytes) / 2**20
 
 
 def _capture_and_render(frames: int) -> tuple[float, float]:

@@ -562,14 +562,14 @@ def test_generated_corrupt_data_files_are_caught(written):
 def _process(*arguments) -> tuple[int, str, str, int, float]:
     """`simgen ARGUMENTS` as a real process: exit code, stdout, stderr, peak resident bytes, CPU seconds
     (user + system: what the process itself spent, whatever else the machine runs meanwhile)."""
-    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
-        process = subprocess.Popen([sys.executable, "-m", "simgen.cli", *map(str, arguments)], cwd=ROOT, stdout=out, stderr=err)
-        _, status, usage = os.wait4(process.pid, 0)
-        process.returncode = os.waitstatus_to_exitcode(status)
-        seconds = usage.ru_utime + usage.ru_stime
-        out.seek(0)
-        err.seek(0)
-        return process.returncode, out.read(), err.read(), usage.ru_maxrss * 1024, seconds
+    with tempfile.TemporaryDirectory() as scratch:
+        report = Path(scratch) / "usage"
+        command = [sys.executable, "-m", "simgen.cli", *map(str, arguments)]
+        # the launcher keeps this (by now large) test process's RSS out of the child's peak
+        launcher = [sys.executable, str(ROOT / "benchmarks" / "measure_child.py"), str(report)]
+        done = subprocess.run([*launcher, *command], cwd=ROOT, capture_output=True, text=True)
+        code, peak, seconds = report.read_text().split()
+        return int(code), done.stdout, done.stderr, int(peak), float(seconds)
 
 
 def test_hostile_input_in_real_processes(tmp_path, written):
