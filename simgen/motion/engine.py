@@ -136,40 +136,42 @@ def capture_motion(
     """
     stride = round(100 / motion.capture_hz)
     engine = FootballEngine(motion, seed)
-    times, keypoints, ball, positions = [], [], [], []
+    times = np.empty(motion.frames, np.float64)
+    ball = np.empty((motion.frames, 3), np.float32)
+    keypoints = positions = None  # (F, H, 12, 3) and (F, H, 3), allocated once H is known
+    count = 0
     try:
         for _ in range(round(motion.skip_s / ENGINE_STEP_S)):
             engine.step()
-        while len(times) < motion.frames:
+        while count < motion.frames:
             step_start = engine.physics_steps
             engine.step()
             samples = engine.samples()
             info = engine.info()
             num_humanoids = (samples.shape[1] - 1) // NUM_KEYPOINTS
+            if keypoints is None:  # filled in place: no per-frame arrays to stack at the end
+                keypoints = np.empty((motion.frames, num_humanoids, NUM_KEYPOINTS, 3), np.float32)
+                positions = np.empty((motion.frames, num_humanoids, 3), np.float32)
             for sub in range(PHYSICS_STEPS_PER_ENGINE_STEP):
                 physics_step = step_start + sub + 1
-                if physics_step % stride or len(times) == motion.frames:
+                if physics_step % stride or count == motion.frames:
                     continue
+                times[count] = physics_step * PHYSICS_STEP_S
+                keypoints[count] = samples[sub, :-1].reshape(num_humanoids, NUM_KEYPOINTS, 3)
+                ball[count] = samples[sub, -1]
                 at_step_end = sub == PHYSICS_STEPS_PER_ENGINE_STEP - 1
-                times.append(physics_step * PHYSICS_STEP_S)
-                # Copies: a view would keep the step's whole buffer (10 samples) alive all clip long.
-                keypoints.append(samples[sub, :-1].reshape(num_humanoids, NUM_KEYPOINTS, 3).copy())
-                ball.append(samples[sub, -1].copy())
-                positions.append(
-                    _engine_positions(info, num_humanoids)
-                    if at_step_end
-                    else np.full((num_humanoids, 3), np.nan, np.float32)
-                )
+                positions[count] = _engine_positions(info, num_humanoids) if at_step_end else np.nan
+                count += 1
                 if progress:
                     progress(1)
         track_id, team, role = _roster(info, num_humanoids)
     finally:
         engine.close()
     return MotionClip(
-        time_s=np.round(np.array(times, dtype=np.float64), 6),
-        keypoints_m=np.stack(keypoints).astype(np.float32, copy=False),
-        ball_m=np.stack(ball).astype(np.float32, copy=False),
-        engine_position_m=np.stack(positions).astype(np.float32, copy=False),
+        time_s=np.round(times, 6),
+        keypoints_m=keypoints,
+        ball_m=ball,
+        engine_position_m=positions,
         track_id=track_id,
         team=team,
         role=role,
