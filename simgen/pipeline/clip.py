@@ -65,8 +65,8 @@ def render_frames(scenario: Scenario, clip: MotionClip, clip_index: int, first: 
     specs = scenario.sensor_specs()
     for index in range(first, stop):
         j = index % LABEL_CHUNK_FRAMES
-        if j == 0 or index == first:  # labels of the chunk's frames at once
-            label_times = start + (index - j + np.arange(LABEL_CHUNK_FRAMES) + 0.5) / rate
+        if j == 0 or index == first:  # labels of the chunk's frames at once (none past `stop`: no motion there)
+            label_times = start + (index - j + np.arange(min(LABEL_CHUNK_FRAMES, stop - index + j)) + 0.5) / rate
             keypoints, velocity, boxes = label_poses(clip, label_times)
         frame_start = start + index / rate
         rays = frame_rays(scenario, specs, index, start)
