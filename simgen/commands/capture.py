@@ -35,6 +35,7 @@ def run(args) -> int:
     overrides = {}
     if args.frames is not None:
         overrides["motion"] = {**scenario.motion.model_dump(), "frames": args.frames}
+        overrides["scan"] = {**scenario.scan.model_dump(), "frames": None}  # nothing is scanned: no frame count to cover
     if args.seed is not None:
         overrides["seed"] = args.seed
     if overrides:
