@@ -106,6 +106,16 @@ def test_not_a_clip_is_one_line(tmp_path):
         read_clip(bogus)
     with pytest.raises(UserError, match="no such motion clip"):
         read_clip(tmp_path / "absent.parquet")
-    pq.write_table(pq.read_table(MOTION_FIXTURE).replace_schema_metadata({}), tmp_path / "plain.parquet")
+    table = pq.read_table(MOTION_FIXTURE)
+    pq.write_table(table.slice(0, 0), tmp_path / "empty.parquet")
+    with pytest.raises(UserError, match="a motion clip without frames"):
+        read_clip(tmp_path / "empty.parquet")
+    pq.write_table(table.slice(0, 30), tmp_path / "ragged.parquet")  # frame 0 whole, frame 1 five humanoids
+    with pytest.raises(UserError, match="rows are not whole frames"):
+        read_clip(tmp_path / "ragged.parquet")
+    pq.write_table(table.drop_columns(["keypoints_m"]), tmp_path / "no_keypoints.parquet")
+    with pytest.raises(UserError, match="not a simgen motion clip .*keypoints_m"):
+        read_clip(tmp_path / "no_keypoints.parquet")
+    pq.write_table(table.replace_schema_metadata({}), tmp_path / "plain.parquet")
     with pytest.raises(UserError, match="not a simgen motion clip"):
         read_clip(tmp_path / "plain.parquet")

@@ -51,6 +51,9 @@ SCHEMA = pa.schema(
 )
 
 
+PER_ROW_LISTS = {"keypoints_m": NUM_KEYPOINTS * 3, "engine_position_m": 3, "ball_m": 3}  # fixed-size list columns, widths
+
+
 def _fixed_list(values: np.ndarray, width: int) -> pa.FixedSizeListArray:
     flat = pa.array(np.ascontiguousarray(values, dtype=np.float32).reshape(-1))
     return pa.FixedSizeListArray.from_arrays(flat, width)
@@ -106,46 +109,60 @@ def _frames(clip: MotionClip, start: int, stop: int) -> MotionClip:
 
 
 def read_clip(path: str | Path) -> MotionClip:
-    """Read a motion clip; a file that is not one of ours is a one-line `UserError`."""
+    """Read a motion clip a row group at a time into arrays allocated once (a whole match's table at once
+    would cost several times its arrays in memory); a file that is not one of ours is a one-line `UserError`."""
     path = Path(path)
     try:
-        table = pq.read_table(path)
+        parquet = pq.ParquetFile(path)
+        raw = (parquet.schema_arrow.metadata or {}).get(b"simgen.motion")
+        if raw is None:
+            raise UserError(f"{path}: not a simgen motion clip (no simgen.motion metadata)")
+        metadata = json.loads(raw)
+        if metadata.get("schema_version") != MOTION_SCHEMA_VERSION:
+            raise UserError(
+                f"{path}: motion schema version {metadata.get('schema_version')}, "
+                f"this simgen reads {MOTION_SCHEMA_VERSION}"
+            )
+        rows = parquet.metadata.num_rows
+        if rows == 0:
+            raise UserError(f"{path}: a motion clip without frames")
+        frame = np.empty(rows, np.int32)
+        time_s = np.empty(rows, np.float64)
+        per_row = {name: np.empty((rows, width), np.float32) for name, width in PER_ROW_LISTS.items()}
+        first = None  # the first row group: the roster
+        done = 0
+        for group_index in range(parquet.num_row_groups):
+            group = parquet.read_row_group(group_index)
+            first = group if first is None else first
+            stop = done + group.num_rows
+            frame[done:stop] = group["frame"].to_numpy()
+            time_s[done:stop] = group["time_s"].to_numpy()
+            for name, width in PER_ROW_LISTS.items():
+                per_row[name][done:stop] = group[name].combine_chunks().flatten().to_numpy().reshape(-1, width)
+            done = stop
     except FileNotFoundError:
         raise UserError(f"{path}: no such motion clip") from None
     except (OSError, pa.ArrowException) as error:
         raise UserError(f"{path}: not a readable Parquet motion clip ({error})") from None
-    raw = (table.schema.metadata or {}).get(b"simgen.motion")
-    if raw is None:
-        raise UserError(f"{path}: not a simgen motion clip (no simgen.motion metadata)")
-    metadata = json.loads(raw)
-    if metadata.get("schema_version") != MOTION_SCHEMA_VERSION:
-        raise UserError(
-            f"{path}: motion schema version {metadata.get('schema_version')}, "
-            f"this simgen reads {MOTION_SCHEMA_VERSION}"
-        )
-    frame = table["frame"].to_numpy()
-    frames = int(frame.max()) + 1 if len(frame) else 0
-    humanoids = len(frame) // max(frames, 1)
-    if frames * humanoids != len(frame) or not np.array_equal(frame, np.repeat(np.arange(frames), humanoids)):
+    except (KeyError, ValueError) as error:  # a column missing or of another width
+        raise UserError(f"{path}: not a simgen motion clip ({type(error).__name__}: {str(error).splitlines()[0] if str(error) else error!r})") from None
+    frames = int(frame.max()) + 1
+    humanoids = rows // max(frames, 1)
+    if humanoids == 0 or frames * humanoids != rows or not np.array_equal(frame, np.repeat(np.arange(frames), humanoids)):
         raise UserError(f"{path}: rows are not whole frames of the same humanoids")
-
-    def per_frame(name: str, width: int) -> np.ndarray:
-        values = table[name].combine_chunks().flatten().to_numpy()
-        return values.reshape(frames, humanoids, width)
-
-    first = table.slice(0, humanoids)
+    roster = first.slice(0, humanoids)  # whole frames of the same humanoids: frame 0's rows hold the roster
     capture_hz = metadata.pop("capture_hz")
     for key in ("schema_version", "pitch_frame", "keypoint_names"):
         metadata.pop(key, None)
     return MotionClip(
-        time_s=table["time_s"].to_numpy()[::humanoids].copy(),
-        keypoints_m=per_frame("keypoints_m", NUM_KEYPOINTS * 3).reshape(frames, humanoids, NUM_KEYPOINTS, 3),
-        ball_m=per_frame("ball_m", 3)[:, 0].copy(),
-        engine_position_m=per_frame("engine_position_m", 3),
-        track_id=first["track_id"].to_numpy(),
-        team=np.array(first["team"].to_pylist()),
-        role=np.array(first["role"].to_pylist()),
-        jersey=first["jersey"].to_numpy(),
+        time_s=time_s[::humanoids].copy(),
+        keypoints_m=per_row["keypoints_m"].reshape(frames, humanoids, NUM_KEYPOINTS, 3),
+        ball_m=per_row["ball_m"][::humanoids].copy(),
+        engine_position_m=per_row["engine_position_m"].reshape(frames, humanoids, 3),
+        track_id=roster["track_id"].to_numpy(),
+        team=np.array(roster["team"].to_pylist()),
+        role=np.array(roster["role"].to_pylist()),
+        jersey=roster["jersey"].to_numpy(),
         capture_hz=capture_hz,
         metadata=metadata,
     )
