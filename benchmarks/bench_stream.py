@@ -16,7 +16,9 @@ Writes benchmarks/results/stream.md.
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -28,22 +30,23 @@ SCENARIO = ROOT / "scenarios" / "full_match.yaml"
 MATCH_FRAMES = 54_000
 
 
-def _generate(out: Path, frames: int) -> tuple[float, float]:
-    """Wall seconds and peak RSS (MiB) of one `simgen generate` process."""
+def _generate(out: Path, frames: int) -> tuple[float, float, int]:
+    """Wall seconds, peak RSS (MiB) and minor page faults of one `simgen generate` process."""
     command = [sys.executable, "-m", "simgen.cli", "generate", str(SCENARIO), "-o", str(out), "--clips", "1", "--frames", str(frames)]
     report = out.parent / f"usage-{frames}"
     launcher = [sys.executable, str(ROOT / "benchmarks" / "measure_child.py"), str(report)]  # keeps this process's RSS out
     started = time.perf_counter()
     subprocess.run([*launcher, *command], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
     seconds = time.perf_counter() - started
-    code, peak_bytes, _ = report.read_text().split()
-    if code != "0":
+    usage = json.loads(report.read_text())
+    if usage["exit_code"] != 0:
         raise SystemExit(f"simgen generate --frames {frames} failed")
-    return seconds, int(peak_bytes) / 2**20
+    return seconds, usage["peak_bytes"] / 2**20, usage["minor_faults"]
 
 
-def _capture_and_render(frames: int) -> tuple[float, float]:
-    """Seconds to capture the motion of `frames` frames, and to render them (labels included)."""
+def _capture_and_render(frames: int) -> tuple[float, float, int]:
+    """Seconds to capture the motion of `frames` frames, and to render them (labels included), and the
+    minor page faults of rendering."""
     from simgen.motion.engine import capture_motion
     from simgen.pipeline.clip import engine_seed, render_frames
     from simgen.scenario import load_scenario, parse_scenario
@@ -55,10 +58,10 @@ def _capture_and_render(frames: int) -> tuple[float, float]:
     started = time.perf_counter()
     clip = capture_motion(scenario.motion, engine_seed(scenario, 0))
     capture_s = time.perf_counter() - started
-    started = time.perf_counter()
+    started, faults = time.perf_counter(), resource.getrusage(resource.RUSAGE_SELF).ru_minflt
     for _ in render_frames(scenario, clip, 0, 0, frames):
         pass
-    return capture_s, time.perf_counter() - started
+    return capture_s, time.perf_counter() - started, resource.getrusage(resource.RUSAGE_SELF).ru_minflt - faults
 
 
 def main() -> None:
@@ -71,9 +74,11 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         runs = {n: _generate(Path(tmp) / f"f{n}", n) for n in sizes}
     largest = sizes[-1]
-    capture_s, render_s = _capture_and_render(largest)
+    capture_s, render_s, render_faults = _capture_and_render(largest)
     e2e_s, base_rss = runs[largest][0], runs[sizes[0]][1]
-    rss_rows = [f"| {n:,} | {rss:,.0f} | {rss / base_rss:.2f} |" for n, (_, rss) in runs.items()]
+    rss_rows = [f"| {n:,} | {rss:,.0f} | {rss / base_rss:.2f} |" for n, (_, rss, _) in runs.items()]
+    # faults a frame adds end to end: the largest run's over the smallest's, per extra frame
+    e2e_faults = (runs[largest][2] - runs[sizes[0]][2]) / max(largest - sizes[0], 1)
     rest_s = max(e2e_s - capture_s, 0.0)
     scale = MATCH_FRAMES / largest
     match_s = capture_s * scale + rest_s * scale / args.workers
@@ -91,6 +96,8 @@ def main() -> None:
         "| frames per clip | peak RSS, MiB | ratio |\n|---|---|---|\n" + "\n".join(rss_rows) + "\n\n"
         f"Where {largest:,} frames' time goes, frames/s of one core (ratio: end to end seconds / the part's seconds):\n\n"
         "| part | frames/s | ratio |\n|---|---|---|\n" + "\n".join(rate_rows) + "\n\n"
+        f"Minor page faults per frame: {e2e_faults:.1f} end to end (the {largest:,}-frame run's over the {sizes[0]:,}-frame run's, "
+        f"per extra frame), {render_faults / largest:.1f} in rendering + labels alone (first frame included).\n\n"
         f"Whole match ({MATCH_FRAMES:,} frames) projected from the {largest:,}-frame run with {args.workers} workers: capture "
         f"{capture_s * scale / 3600:.2f} h (one engine, in order) + the rest {rest_s * scale / args.workers / 3600:.2f} h "
         f"(shards over {args.workers} workers) = {match_s / 3600:.2f} h.\n"

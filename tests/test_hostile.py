@@ -568,8 +568,8 @@ def _process(*arguments) -> tuple[int, str, str, int, float]:
         # the launcher keeps this (by now large) test process's RSS out of the child's peak
         launcher = [sys.executable, str(ROOT / "benchmarks" / "measure_child.py"), str(report)]
         done = subprocess.run([*launcher, *command], cwd=ROOT, capture_output=True, text=True)
-        code, peak, seconds = report.read_text().split()
-        return int(code), done.stdout, done.stderr, int(peak), float(seconds)
+        usage = json.loads(report.read_text())
+        return usage["exit_code"], done.stdout, done.stderr, usage["peak_bytes"], usage["cpu_s"]
 
 
 def test_hostile_input_in_real_processes(tmp_path, written):
