@@ -21,6 +21,7 @@ from simgen.datasets.manifest import MANIFEST_NAME
 from simgen.datasets.records import sha256_file
 from simgen.datasets.schema import CLIP_TABLES, METADATA_KEY, SCHEMA_VERSION, TABLES
 from simgen.errors import UserError
+from simgen.labels.labelled_frame import LabelledFrame
 
 CLIPS = sample_clips()
 POINTS = sum(len(f.scan.points_m) for frames in CLIPS for f in frames)
@@ -78,11 +79,11 @@ def test_every_file_carries_its_clip_and_frame(root, tmp_path):
     assert per_clip == [(frames[0].clip, len(frames)) for frames in CLIPS]
 
 
-def test_points_have_a_row_group_per_frame_and_documented_fields(root):
+def test_points_have_row_groups_of_ten_frames_and_documented_fields(root):
     for frames in CLIPS:
         parquet = pq.ParquetFile(root / f"points/{frames[0].clip}/part-0.parquet")
         groups = [parquet.metadata.row_group(i).num_rows for i in range(parquet.metadata.num_row_groups)]
-        assert groups == [len(f.scan.points_m) for f in frames]
+        assert groups == [sum(len(f.scan.points_m) for f in frames[g : g + 10]) for g in range(0, len(frames), 10)]
         assert parquet.metadata.row_group(0).column(1).compression == "ZSTD"
     for name, schema in TABLES.items():
         for field in schema:
@@ -119,6 +120,7 @@ def test_partial_clips_read_back_and_rewritten_give_the_same_bytes(tmp_path, mon
     from simgen.datasets.write import ClipWriter, write_clip
 
     monkeypatch.setattr(parquet, "FRAMES_PER_GROUP", 4)  # groups of frames and boxes cross the shards
+    monkeypatch.setattr(parquet, "POINTS_FRAMES_PER_GROUP", 2)  # and so do groups of points
     frames = make_clip("clip_0000", 11, points=50, seed=3)
     whole = write_clip(tmp_path / "whole", "parquet", frames, sensors(), 0)
     for first, stop in ((0, 3), (3, 10), (10, 11)):
@@ -134,3 +136,20 @@ def test_partial_clips_read_back_and_rewritten_give_the_same_bytes(tmp_path, mon
     assert joined == whole
     for record in whole.files:
         assert (tmp_path / "joined" / record.path).read_bytes() == (tmp_path / "whole" / record.path).read_bytes()
+
+
+def test_frames_read_in_any_order_from_row_groups_of_several_frames(tmp_path, monkeypatch):
+    from dataset_factory import make_clip
+
+    from simgen.datasets import parquet
+
+    monkeypatch.setattr(parquet, "POINTS_FRAMES_PER_GROUP", 3)  # 11 frames: groups of 3, 3, 3 and 2
+    frames = make_clip("clip_0000", 11, points=40, seed=4)
+    frames[4] = make_clip("clip_0000", 1, points=0, seed=5)[0]  # a frame without points inside a group
+    frames = [LabelledFrame(f.clip, i, f.time_s, f.label_time_s, f.scan, f.labels) for i, f in enumerate(frames)]
+    write_dataset(tmp_path, "parquet", [frames])
+    groups = pq.ParquetFile(tmp_path / "points/clip_0000/part-0.parquet").metadata.num_row_groups
+    assert groups == 4
+    reader = simgen.datasets.open(tmp_path)
+    for index in np.random.default_rng(0).permutation(11):
+        np.testing.assert_array_equal(reader.frame("clip_0000", int(index)).points_m, frames[index].scan.points_m)

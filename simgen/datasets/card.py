@@ -34,7 +34,8 @@ def _parquet_layout() -> list[str]:
         "Apache Parquet, zstd, laid out like Waymo Open Dataset v2: one table per component, a file per clip",
         "(`<table>/<clip id>/part-0.parquet`) whose rows carry their keys `clip` and `frame` inside the file (so a",
         "file copied out of its folder still says what it holds), and `sensors/part-0.parquet` once per dataset.",
-        "`points` has one row group per frame; `frames` and `boxes` row groups hold whole frames. Units and frames",
+        "`points` row groups hold 10 whole frames (group g: frames 10 g .. 10 g + 9); `frames` and `boxes` row groups",
+        "hold whole frames. Units and frames",
         "are also in each field's metadata (`doc`, `unit`).",
     ]
     for name, schema in TABLES.items():

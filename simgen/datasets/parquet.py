@@ -1,9 +1,10 @@
 """The Parquet format (the default): one table per component, a file per clip, zstd.
 
 `<table>/<clip id>/part-0.parquet` for `frames`, `points` and `boxes` (every row holds its `clip`
-and `frame`), `sensors/part-0.parquet` once per dataset (`simgen.datasets.schema`). `points` has
-one row group per frame (row group i is frame i, empty for a frame without points); `frames` and
-`boxes` have row groups of whole frames. Writer options are fixed and no time stamp is written, so
+and `frame`), `sensors/part-0.parquet` once per dataset (`simgen.datasets.schema`). `points` has row groups of
+`POINTS_FRAMES_PER_GROUP` frames (row group g holds frames 10 g .. 10 g + 9; a writer keeps about 10 KiB
+of metadata per row group, so a group per frame would grow a whole match's writer by 0.5 GiB);
+`frames` and `boxes` have row groups of whole frames. Writer options are fixed and no time stamp is written, so
 the same frames give the same bytes. Pages carry CRC checksums, checked on read: a second guard
 behind the manifest's sha256 (which `verify=False` skips).
 """
@@ -37,6 +38,7 @@ if TYPE_CHECKING:
     from simgen.scan.sensor_info import SensorInfo
 
 FRAMES_PER_GROUP = 1000  # row groups of `frames` and `boxes`
+POINTS_FRAMES_PER_GROUP = 10  # row groups of `points`
 OPEN_CLIPS = 4  # clips whose frames and boxes tables the reader keeps
 SENSORS_PATH = "sensors/part-0.parquet"
 
@@ -163,9 +165,9 @@ def _writer(path: Path, name: str) -> pq.ParquetWriter:
 
 
 class ParquetClipStream:
-    """One clip's tables written as its frames come: a row group of `points` per frame at once,
-    `frames` and `boxes` in row groups of `FRAMES_PER_GROUP` frames (only their labels are kept
-    meanwhile). Every file lives under a temporary name until `close`; `abort`
+    """One clip's tables written as its frames come: `points` in row groups of
+    `POINTS_FRAMES_PER_GROUP` frames, `frames` and `boxes` in row groups of `FRAMES_PER_GROUP` frames
+    (only those frames' points and labels are kept meanwhile). Every file lives under a temporary name until `close`; `abort`
     (or an exception inside `with`) removes them, so a failure leaves no file under a final name."""
 
     TABLES = CLIP_TABLES
@@ -183,6 +185,7 @@ class ParquetClipStream:
         self._rows = dict.fromkeys(self.TABLES, 0)
         self._frame_rows: list[dict] = []
         self._labels: list[tuple[int, FrameLabels]] = []
+        self._points: list[pa.Table] = []
 
     def _write(self, name: str, table: pa.Table) -> None:
         self._writers[name].write_table(table, row_group_size=max(len(table), 1))
@@ -194,8 +197,15 @@ class ParquetClipStream:
             self._write("boxes", boxes_table(self.clip, [i for i, _ in self._labels], [lab for _, lab in self._labels]))
             self._frame_rows, self._labels = [], []
 
+    def _flush_points(self) -> None:
+        if self._points:
+            self._write("points", pa.concat_tables(self._points))
+            self._points = []
+
     def add(self, frame: LabelledFrame) -> None:
-        self._write("points", points_table(frame))
+        self._points.append(points_table(frame))
+        if len(self._points) == POINTS_FRAMES_PER_GROUP:
+            self._flush_points()
         self._frame_rows.append(frame_row(frame))
         self._labels.append((frame.index, frame.labels))
         if len(self._frame_rows) == FRAMES_PER_GROUP:
@@ -203,6 +213,7 @@ class ParquetClipStream:
 
     def close(self) -> list[FileRecord]:
         """Finish every file, rename each to its final name; their records."""
+        self._flush_points()
         self._flush_labels()
         for writer in self._writers.values():
             writer.close()
@@ -239,7 +250,9 @@ def labelled_frames(root: Path, clip: str) -> Iterator[LabelledFrame]:
         if position % FRAMES_PER_GROUP == 0:  # row groups of `boxes` hold FRAMES_PER_GROUP frames
             group, offset = boxes.read_row_group(position // FRAMES_PER_GROUP), 0
         box, offset = group.slice(offset, row["num_boxes"]), offset + row["num_boxes"]
-        point = points.read_row_group(position)
+        if position % POINTS_FRAMES_PER_GROUP == 0:
+            point_group, point_offset = points.read_row_group(position // POINTS_FRAMES_PER_GROUP), 0
+        point, point_offset = point_group.slice(point_offset, row["num_points"]), point_offset + row["num_points"]
 
         scan = ScanFrame(
             points_m=np.stack([_column(point, axis) for axis in "xyz"], axis=1),
@@ -303,6 +316,7 @@ class _ClipTables:
     boxes: pa.Table
     box_offsets: NDArray[np.int64]  # (F + 1,) first box row of each frame
     points: pq.ParquetFile
+    point_offsets: NDArray[np.int64]  # (F + 1,) first point row of each frame in the clip
 
 
 class ParquetReader:
@@ -311,6 +325,7 @@ class ParquetReader:
     def __init__(self, files: DatasetFiles):
         self.files = files
         self._clip = functools.lru_cache(maxsize=OPEN_CLIPS)(self._load_clip)
+        self._last_group: tuple[tuple[str, int] | None, pa.Table | None] = (None, None)
 
     def _open(self, name: str, clip: str) -> pq.ParquetFile:
         return open_table(self.files.path(table_path(name, clip)), name)
@@ -330,20 +345,34 @@ class ParquetReader:
             listed = self.files.rows(table_path("frames", clip))
             raise UserError(f"{self.files.root / table_path('frames', clip)}: holds {count} frames, manifest.json lists {listed}")
         path = self.files.root / table_path("points", clip)
-        if points.metadata.num_row_groups != count or not np.array_equal(frames["frame"].to_numpy(), np.arange(count)):
+        groups = -(-count // POINTS_FRAMES_PER_GROUP)
+        if points.metadata.num_row_groups != groups or not np.array_equal(frames["frame"].to_numpy(), np.arange(count)):
             raise UserError(f"{path}: row groups do not match the clip's {count} frames")
         for name, table in (("frames", frames), ("boxes", boxes)):
             if set(table["clip"].unique().to_pylist()) - {clip}:
                 raise UserError(f"{self.files.root / table_path(name, clip)}: rows of another clip than {clip}")
         offsets = np.searchsorted(boxes["frame"].to_numpy(), np.arange(count + 1))
-        return _ClipTables(frames, boxes, offsets, points)
+        sizes = [points.metadata.row_group(g).num_rows for g in range(groups)]
+        point_offsets = np.concatenate([[0], np.cumsum(frames["num_points"].to_numpy(), dtype=np.int64)])
+        if sizes != [point_offsets[min(count, (g + 1) * POINTS_FRAMES_PER_GROUP)] - point_offsets[g * POINTS_FRAMES_PER_GROUP] for g in range(groups)]:
+            raise UserError(f"{path}: row groups do not hold the points the frames table counts")
+        return _ClipTables(frames, boxes, offsets, points, point_offsets)
+
+    def _point_group(self, clip: str, group: int) -> pa.Table:
+        """Row group `group` of a clip's points; the last one read is kept (frames are mostly read in order)."""
+        if self._last_group[0] != (clip, group):
+            try:
+                table = self._clip(clip).points.read_row_group(group)
+            except (OSError, pa.ArrowException) as error:
+                raise UserError(f"{self.files.root / table_path('points', clip)}: unreadable row group {group} ({error})") from None
+            self._last_group = ((clip, group), table)
+        return self._last_group[1]
 
     def frame(self, clip: str, index: int) -> Frame:
         tables = self._clip(clip)
-        try:
-            points = tables.points.read_row_group(index)
-        except (OSError, pa.ArrowException) as error:
-            raise UserError(f"{self.files.root / table_path('points', clip)}: unreadable row group {index} ({error})") from None
+        group = index // POINTS_FRAMES_PER_GROUP
+        first = tables.point_offsets[group * POINTS_FRAMES_PER_GROUP]
+        points = self._point_group(clip, group).slice(tables.point_offsets[index] - first, tables.point_offsets[index + 1] - tables.point_offsets[index])
         boxes = tables.boxes.slice(tables.box_offsets[index], tables.box_offsets[index + 1] - tables.box_offsets[index])
         frame_row = tables.frames.slice(index, 1).to_pylist()[0]
         team = np.array(boxes["team"].to_pylist(), dtype=np.str_)

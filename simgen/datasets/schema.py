@@ -1,7 +1,7 @@
 """The Parquet tables of a dataset: their Arrow schemas, units and frames in the field metadata.
 
 Four tables, as Waymo Open Dataset v2 lays out its components: `frames` (one row per frame),
-`points` (one row per point, one row group per frame) and `boxes` (one row per labelled humanoid
+`points` (one row per point, row groups of 10 whole frames) and `boxes` (one row per labelled humanoid
 per frame) in a file per clip (`<table>/<clip id>/part-0.parquet`), each row carrying its keys
 (`clip`, `frame`) inside the file, as Waymo's `key.*` columns do, so a file copied out of its
 folder still says what it holds; and `sensors` (one row per sensor), once per dataset
@@ -18,7 +18,8 @@ import pyarrow as pa
 
 from simgen.vocab import BALL_INSTANCE_ID, KEYPOINT_NAMES, NUM_KEYPOINTS, SEMANTIC_NAMES
 
-SCHEMA_VERSION = 2  # 2: `clip` and `frame` columns in every per-clip table, `sensors` once per dataset, points.sweep
+SCHEMA_VERSION = 3  # 2: `clip` and `frame` columns in every per-clip table, `sensors` once per dataset, points.sweep;
+#                    3: `points` row groups of 10 frames instead of one each
 METADATA_KEY = b"simgen.dataset"
 PITCH_FRAME = "pitch: origin at the centre spot, x towards the right team's goal, y left, z up; metres"
 BOX_CONVENTION = (
