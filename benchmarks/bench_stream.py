@@ -30,10 +30,11 @@ SCENARIO = ROOT / "scenarios" / "full_match.yaml"
 MATCH_FRAMES = 54_000
 
 
-def _generate(out: Path, frames: int) -> tuple[float, float, int]:
+def _generate(out: Path, frames: int, shard_frames: int = 0) -> tuple[float, float, int]:
     """Wall seconds, peak RSS (MiB) and minor page faults of one `simgen generate` process."""
     command = [sys.executable, "-m", "simgen.cli", "generate", str(SCENARIO), "-o", str(out), "--clips", "1", "--frames", str(frames)]
-    report = out.parent / f"usage-{frames}"
+    command += ["--shard-frames", str(shard_frames)] if shard_frames else []
+    report = out.parent / f"usage-{frames}-{shard_frames}"
     launcher = [sys.executable, str(ROOT / "benchmarks" / "measure_child.py"), str(report)]  # keeps this process's RSS out
     started = time.perf_counter()
     subprocess.run([*launcher, *command], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
@@ -73,6 +74,9 @@ def main() -> None:
     _capture_and_render(3)  # compile the numba kernels once, outside every measure
     with tempfile.TemporaryDirectory() as tmp:
         runs = {n: _generate(Path(tmp) / f"f{n}", n) for n in sizes}
+        # the largest N is rendered in shards (automatic: at most 3,000 frames each) and joined: the
+        # smallest N sharded in two, the same code path, is its like-for-like baseline
+        sharded_base = _generate(Path(tmp) / "sharded", sizes[0], max(sizes[0] // 2, 1))
     largest = sizes[-1]
     capture_s, render_s, render_faults = _capture_and_render(largest)
     e2e_s, base_rss = runs[largest][0], runs[sizes[0]][1]
@@ -94,6 +98,9 @@ def main() -> None:
         f"`simgen generate scenarios/full_match.yaml --clips 1 --frames N --workers 1` on this machine ({os.cpu_count()} cores, shared).\n\n"
         "Peak RSS of the one process (capture, rendering, writing), against the smallest N of the same run:\n\n"
         "| frames per clip | peak RSS, MiB | ratio |\n|---|---|---|\n" + "\n".join(rss_rows) + "\n\n"
+        f"Shards: {largest:,} frames are rendered as {-(-largest // 3000)} shards and joined (reading the partial clips "
+        f"back); {sizes[0]:,} frames in two shards of {max(sizes[0] // 2, 1):,} take that path too: peak {sharded_base[1]:,.0f} MiB, "
+        f"so {largest:,} frames are {runs[largest][1] / sharded_base[1]:.2f}x the same path at {sizes[0]:,} frames.\n\n"
         f"Where {largest:,} frames' time goes, frames/s of one core (ratio: end to end seconds / the part's seconds):\n\n"
         "| part | frames/s | ratio |\n|---|---|---|\n" + "\n".join(rate_rows) + "\n\n"
         f"Minor page faults per frame: {e2e_faults:.1f} end to end (the {largest:,}-frame run's over the {sizes[0]:,}-frame run's, "
