@@ -4,6 +4,7 @@ resume (between clips and in the middle of a clip's shards), runs lock."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import signal
 import subprocess
@@ -144,3 +145,15 @@ def test_a_second_run_into_the_same_directory_is_refused(tmp_path):
     finally:
         first.wait(timeout=300)
     assert first.returncode == 0 and (out / "manifest.json").exists()
+
+
+def test_overwrite_keeps_its_run_state_inside_the_output(tmp_path):
+    # an --overwrite of a finished dataset once wrote its resume record to ./shards in the caller's folder
+    out, cwd = tmp_path / "dataset", tmp_path / "elsewhere"
+    cwd.mkdir()
+    command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), "--frames", "3", "--overwrite"]
+    for _ in range(2):
+        done = subprocess.run(command, cwd=cwd, capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+        assert done.returncode == 0, done.stderr
+    assert list(cwd.iterdir()) == []
+    assert (out / "manifest.json").is_file() and not (out / ".simgen").exists()

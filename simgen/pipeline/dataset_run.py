@@ -235,8 +235,8 @@ def prepare_output(root: Path, scenario: Scenario, resume: bool, overwrite: bool
         for child in root.iterdir():
             if child.name != WORK_DIR:
                 shutil.rmtree(child) if child.is_dir() else child.unlink()
-        for state in ("clips", "motion", "shards"):
-            shutil.rmtree(root / WORK_DIR / state, ignore_errors=True)
+        for kind in ("clips", "motion", "shards"):
+            shutil.rmtree(root / WORK_DIR / kind, ignore_errors=True)
     elif resume and occupied:
         if complete and not interrupted and (root / CARD_NAME).exists():
             raise UserError(f"{root}: the dataset is already complete (manifest.json); nothing to resume")
