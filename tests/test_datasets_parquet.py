@@ -11,6 +11,7 @@ import duckdb
 import numpy as np
 import pandas as pd
 import polars as pl
+import pyarrow as pa
 import pyarrow.dataset as ds
 import pyarrow.parquet as pq
 import pytest
@@ -153,3 +154,20 @@ def test_frames_read_in_any_order_from_row_groups_of_several_frames(tmp_path, mo
     reader = simgen.datasets.open(tmp_path)
     for index in np.random.default_rng(0).permutation(11):
         np.testing.assert_array_equal(reader.frame("clip_0000", int(index)).points_m, frames[index].scan.points_m)
+
+
+def test_point_counts_that_disagree_with_the_points_are_refused(tmp_path):
+    write_dataset(tmp_path, "parquet", CLIPS[:1])
+    relative = "frames/clip_0000/part-0.parquet"
+    table = pq.read_table(tmp_path / relative, partitioning=None)
+    counts = table["num_points"].to_numpy().copy()
+    counts[0], counts[1] = counts[0] + 1, counts[1] - 1  # same total in the row group: only the frames' split is wrong
+    index = table.schema.get_field_index("num_points")
+    pq.write_table(table.set_column(index, table.schema.field(index), pa.array(counts, pa.int32())), tmp_path / relative)
+    manifest = json.loads((tmp_path / MANIFEST_NAME).read_text())
+    for entry in manifest["files"]:
+        if entry["path"] == relative:
+            entry.update(bytes=(tmp_path / relative).stat().st_size, sha256=sha256_file(tmp_path / relative))
+    (tmp_path / MANIFEST_NAME).write_text(json.dumps(manifest))
+    with pytest.raises(UserError, match="frame 0's points are not where the frames table counts them$"):
+        simgen.datasets.open(tmp_path).frame("clip_0000", 0)

@@ -354,7 +354,8 @@ class ParquetReader:
         offsets = np.searchsorted(boxes["frame"].to_numpy(), np.arange(count + 1))
         sizes = [points.metadata.row_group(g).num_rows for g in range(groups)]
         point_offsets = np.concatenate([[0], np.cumsum(frames["num_points"].to_numpy(), dtype=np.int64)])
-        if sizes != [point_offsets[min(count, (g + 1) * POINTS_FRAMES_PER_GROUP)] - point_offsets[g * POINTS_FRAMES_PER_GROUP] for g in range(groups)]:
+        group_starts = point_offsets[np.minimum(np.arange(groups + 1) * POINTS_FRAMES_PER_GROUP, count)]
+        if sizes != np.diff(group_starts).tolist():
             raise UserError(f"{path}: row groups do not hold the points the frames table counts")
         return _ClipTables(frames, boxes, offsets, points, point_offsets)
 
@@ -373,6 +374,9 @@ class ParquetReader:
         group = index // POINTS_FRAMES_PER_GROUP
         first = tables.point_offsets[group * POINTS_FRAMES_PER_GROUP]
         points = self._point_group(clip, group).slice(tables.point_offsets[index] - first, tables.point_offsets[index + 1] - tables.point_offsets[index])
+        point_frame = points["frame"]
+        if len(point_frame) and not point_frame[0].as_py() == point_frame[-1].as_py() == index:
+            raise UserError(f"{self.files.root / table_path('points', clip)}: frame {index}'s points are not where the frames table counts them")
         boxes = tables.boxes.slice(tables.box_offsets[index], tables.box_offsets[index + 1] - tables.box_offsets[index])
         frame_row = tables.frames.slice(index, 1).to_pylist()[0]
         team = np.array(boxes["team"].to_pylist(), dtype=np.str_)
