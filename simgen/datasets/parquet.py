@@ -236,6 +236,25 @@ def _fixed(table: pa.Table, name: str, shape: tuple[int, ...]) -> NDArray[np.flo
     return table[name].combine_chunks().flatten().to_numpy().reshape(-1, *shape)
 
 
+def _point_fields(points: pa.Table) -> dict[str, NDArray]:
+    """A frame's `points` rows as the per-point fields `ScanFrame` and `Frame` share."""
+    fields = {name: _column(points, name) for name in ("intensity", "time_offset_s", "sensor", "head", "instance_id", "semantic", "sweep")}
+    return {"points_m": np.stack([_column(points, axis) for axis in "xyz"], axis=1), **fields}
+
+
+def _box_fields(boxes: pa.Table) -> dict[str, NDArray]:
+    """A frame's `boxes` rows as the per-humanoid fields `FrameLabels` and `Frame` share."""
+    return {
+        "boxes": np.stack([_column(boxes, name) for name in BOX_FIELDS], axis=1).reshape(-1, 7),
+        "track_id": _column(boxes, "track_id"),
+        "team": np.array(boxes["team"].to_pylist(), dtype=np.str_),
+        "role": np.array(boxes["role"].to_pylist(), dtype=np.str_),
+        "velocity_mps": _fixed(boxes, "velocity_mps", (3,)),
+        "keypoints_m": _fixed(boxes, "keypoints_m", (NUM_KEYPOINTS, 3)),
+        "num_points": _column(boxes, "num_points"),
+    }
+
+
 def labelled_frames(root: Path, clip: str) -> Iterator[LabelledFrame]:
     """The frames a `ParquetClipStream` wrote under `root`, back as `LabelledFrame`s one at a time
     (partial clips of `simgen generate`'s shards): written again, they give the same bytes."""
@@ -254,28 +273,8 @@ def labelled_frames(root: Path, clip: str) -> Iterator[LabelledFrame]:
             point_group, point_offset = points.read_row_group(position // POINTS_FRAMES_PER_GROUP), 0
         point, point_offset = point_group.slice(point_offset, row["num_points"]), point_offset + row["num_points"]
 
-        scan = ScanFrame(
-            points_m=np.stack([_column(point, axis) for axis in "xyz"], axis=1),
-            intensity=_column(point, "intensity"),
-            time_offset_s=_column(point, "time_offset_s"),
-            sensor=_column(point, "sensor"),
-            head=_column(point, "head"),
-            instance_id=_column(point, "instance_id"),
-            semantic=_column(point, "semantic"),
-            sweep=_column(point, "sweep"),
-            shots=row["shots"],
-            dropped=row["dropped"],
-            missed=row["missed"],
-        )
-        labels = FrameLabels(
-            boxes=np.stack([_column(box, name) for name in BOX_FIELDS], axis=1).reshape(-1, 7),
-            track_id=_column(box, "track_id"),
-            team=np.array(box["team"].to_pylist(), dtype=np.str_),
-            role=np.array(box["role"].to_pylist(), dtype=np.str_),
-            velocity_mps=_fixed(box, "velocity_mps", (3,)),
-            keypoints_m=_fixed(box, "keypoints_m", (NUM_KEYPOINTS, 3)),
-            num_points=_column(box, "num_points"),
-        )
+        scan = ScanFrame(**_point_fields(point), shots=row["shots"], dropped=row["dropped"], missed=row["missed"])
+        labels = FrameLabels(**_box_fields(box))
         yield LabelledFrame(clip, row["frame"], row["time_s"], row["label_time_s"], scan, labels)
 
 
@@ -379,27 +378,13 @@ class ParquetReader:
             raise UserError(f"{self.files.root / table_path('points', clip)}: frame {index}'s points are not where the frames table counts them")
         boxes = tables.boxes.slice(tables.box_offsets[index], tables.box_offsets[index + 1] - tables.box_offsets[index])
         frame_row = tables.frames.slice(index, 1).to_pylist()[0]
-        team = np.array(boxes["team"].to_pylist(), dtype=np.str_)
-
+        box_fields = _box_fields(boxes)
         return Frame(
             clip=clip,
             index=index,
-            points_m=np.stack([_column(points, axis) for axis in "xyz"], axis=1),
-            intensity=_column(points, "intensity"),
-            boxes=np.stack([_column(boxes, name) for name in BOX_FIELDS], axis=1).reshape(-1, 7),
-            class_name=class_names(team),
-            track_id=_column(boxes, "track_id"),
+            class_name=class_names(box_fields["team"]),
             time_s=frame_row["time_s"],
             label_time_s=frame_row["label_time_s"],
-            time_offset_s=_column(points, "time_offset_s"),
-            sensor=_column(points, "sensor"),
-            head=_column(points, "head"),
-            sweep=_column(points, "sweep"),
-            instance_id=_column(points, "instance_id"),
-            semantic=_column(points, "semantic"),
-            team=team,
-            role=np.array(boxes["role"].to_pylist(), dtype=np.str_),
-            velocity_mps=_fixed(boxes, "velocity_mps", (3,)),
-            keypoints_m=_fixed(boxes, "keypoints_m", (NUM_KEYPOINTS, 3)),
-            num_points=_column(boxes, "num_points"),
+            **_point_fields(points),
+            **box_fields,
         )
