@@ -10,12 +10,18 @@ match's projected wall time, on `scenarios/full_match.yaml` (one Mid-100 x1, one
    the two is what writing, hashing and the manifest cost.
 3. A whole match (54,000 frames) projected on this machine with W workers: the capture is one
    engine playing in order (capture time x 54,000 / N); the rest is split over the workers' shards.
+4. A shard's motion at a whole match's length: the largest N's capture repeated to 54,000 frames,
+   stored as `simgen generate` keeps it between capture and shards (arrays that a shard maps,
+   `read_clip_arrays`), against the same clip as a Parquet motion file read whole (`read_clip`, as
+   `simgen capture` writes it); a child process opens it and poses the last shard's 3,000 frames.
+   Peak RSS over a child that only imports the same modules and poses 50 frames (compiling the kernels).
 Writes benchmarks/results/stream.md.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import resource
@@ -24,6 +30,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "full_match.yaml"
@@ -45,9 +53,46 @@ def _generate(out: Path, frames: int, shard_frames: int = 0) -> tuple[float, flo
     return seconds, usage["peak_bytes"] / 2**20, usage["minor_faults"]
 
 
-def _capture_and_render(frames: int) -> tuple[float, float, int]:
-    """Seconds to capture the motion of `frames` frames, and to render them (labels included), and the
-    minor page faults of rendering."""
+SHARD_POSES = """
+import sys
+import numpy as np
+from simgen.labels.boxes import label_poses
+from simgen.motion.clip_io import read_clip, read_clip_arrays
+warm = read_clip_arrays(sys.argv[3])  # compiles the labels' kernels: every child pays for that
+label_poses(warm, warm.time_s[0] + (np.arange(50) + 0.5) / 10)
+del warm
+if sys.argv[1] != "imports":
+    clip = (read_clip if sys.argv[1] == "parquet" else read_clip_arrays)(sys.argv[2])
+    times = clip.time_s[0] + (np.arange(MATCH - 3000, MATCH) + 0.5) / 10
+    for first in range(0, len(times), 50):
+        label_poses(clip, times[first : first + 50])
+""".replace("MATCH", str(MATCH_FRAMES))
+
+
+def _match_motion(clip, directory: Path) -> dict[str, float]:
+    """Peak RSS (MiB) of a child posing a whole match's last 3,000 frames: "imports" (and 50 frames) only, the
+    motion "parquet" read whole, or its "arrays" mapped."""
+    from simgen.motion.clip_io import write_clip, write_clip_arrays
+
+    repeats = -(-MATCH_FRAMES * clip.capture_hz // (10 * clip.num_frames)) + 1  # 10 Hz frames
+    frames = repeats * clip.num_frames
+    match = dataclasses.replace(
+        clip, time_s=clip.time_s[0] + np.arange(frames) / clip.capture_hz, keypoints_m=np.tile(clip.keypoints_m, (repeats, 1, 1, 1)),
+        ball_m=np.tile(clip.ball_m, (repeats, 1)), engine_position_m=np.tile(clip.engine_position_m, (repeats, 1, 1)),
+    )
+    paths = {"imports": "", "parquet": write_clip(match, directory / "match.parquet"), "arrays": write_clip_arrays(match, directory / "match")}
+    peaks = {}
+    for mode, path in paths.items():
+        report = directory / f"usage-{mode}"
+        launcher = [sys.executable, str(ROOT / "benchmarks" / "measure_child.py"), str(report)]
+        subprocess.run([*launcher, sys.executable, "-c", SHARD_POSES, mode, str(path), str(paths["arrays"])], cwd=ROOT, check=True)
+        peaks[mode] = json.loads(report.read_text())["peak_bytes"] / 2**20
+    return peaks
+
+
+def _capture_and_render(frames: int):
+    """Seconds to capture the motion of `frames` frames, and to render them (labels included), the
+    minor page faults of rendering, and the motion."""
     from simgen.motion.engine import capture_motion
     from simgen.pipeline.clip import engine_seed, render_frames
     from simgen.scenario import load_scenario, parse_scenario
@@ -62,7 +107,7 @@ def _capture_and_render(frames: int) -> tuple[float, float, int]:
     started, faults = time.perf_counter(), resource.getrusage(resource.RUSAGE_SELF).ru_minflt
     for _ in render_frames(scenario, clip, 0, 0, frames):
         pass
-    return capture_s, time.perf_counter() - started, resource.getrusage(resource.RUSAGE_SELF).ru_minflt - faults
+    return capture_s, time.perf_counter() - started, resource.getrusage(resource.RUSAGE_SELF).ru_minflt - faults, clip
 
 
 def main() -> None:
@@ -78,7 +123,10 @@ def main() -> None:
         # smallest N sharded in two, the same code path, is its like-for-like baseline
         sharded_base = _generate(Path(tmp) / "sharded", sizes[0], max(sizes[0] // 2, 1))
     largest = sizes[-1]
-    capture_s, render_s, render_faults = _capture_and_render(largest)
+    capture_s, render_s, render_faults, clip = _capture_and_render(largest)
+    with tempfile.TemporaryDirectory() as tmp:
+        motion = _match_motion(clip, Path(tmp))
+    held = {mode: motion[mode] - motion["imports"] for mode in ("parquet", "arrays")}
     e2e_s, base_rss = runs[largest][0], runs[sizes[0]][1]
     rss_rows = [f"| {n:,} | {rss:,.0f} | {rss / base_rss:.2f} |" for n, (_, rss, _) in runs.items()]
     # faults a frame adds end to end: the largest run's over the smallest's, per extra frame
@@ -107,7 +155,13 @@ def main() -> None:
         f"per extra frame), {render_faults / largest:.1f} in rendering + labels alone (first frame included).\n\n"
         f"Whole match ({MATCH_FRAMES:,} frames) projected from the {largest:,}-frame run with {args.workers} workers: capture "
         f"{capture_s * scale / 3600:.2f} h (one engine, in order) + the rest {rest_s * scale / args.workers / 3600:.2f} h "
-        f"(shards over {args.workers} workers) = {match_s / 3600:.2f} h.\n"
+        f"(shards over {args.workers} workers) = {match_s / 3600:.2f} h.\n\n"
+        f"A shard's motion at a whole match's length ({clip.keypoints_m.nbytes * MATCH_FRAMES / largest / 2**20:,.0f} MiB of keypoints; the "
+        f"last 3,000 frames posed in a child process), peak RSS over a child that only imports and poses 50 frames ({motion['imports']:,.0f} MiB):\n\n"
+        "| motion | peak RSS over imports, MiB | ratio |\n|---|---|---|\n"
+        f"| Parquet motion file read whole (`read_clip`) | {held['parquet']:,.0f} | 1.00 |\n"
+        f"| run-state arrays, mapped (`read_clip_arrays`, what `simgen generate` uses) | {held['arrays']:,.0f} | "
+        f"{held['arrays'] / held['parquet']:.2f} |\n"
     )
     print(text)
     (ROOT / "benchmarks" / "results" / "stream.md").write_text(text)

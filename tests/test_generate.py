@@ -122,7 +122,7 @@ def test_killed_in_the_middle_of_a_clip_resumes_its_shards(parquet_dataset, tmp_
     sharded = ("--frames", "6", "--clips", "2", "--shard-frames", "2")
     kill_when_recorded(out, "shards/*/*.json", *sharded)
     assert not list((out / ".simgen" / "clips").glob("*.json"))  # killed in the middle of clip 0
-    assert (out / ".simgen" / "motion" / "0000.parquet").exists()  # its capture is kept, and its first shard
+    assert (out / ".simgen" / "motion" / "0000.json").exists()  # its capture is kept (the plan is written last), and its first shard
     resumed = run_simgen("generate", SMOKE, "-o", out, *sharded, "--resume")
     assert resumed.returncode == 0, resumed.stderr[-2000:]
     assert manifest_files(out) == manifest_files(parquet_dataset[0])

@@ -9,7 +9,7 @@ from conftest import MOTION_FIXTURE
 
 from simgen.errors import UserError
 from simgen.motion.clip import MotionClip
-from simgen.motion.clip_io import read_clip, write_clip
+from simgen.motion.clip_io import read_clip, read_clip_arrays, write_clip, write_clip_arrays
 from simgen.vocab import KEYPOINT_INDEX
 
 NECK, MIDDLE = KEYPOINT_INDEX["neck"], KEYPOINT_INDEX["middle"]
@@ -91,6 +91,17 @@ def test_round_trip_is_exact(motion_clip, tmp_path):
         np.testing.assert_array_equal(getattr(again, name), getattr(motion_clip, name))
     assert again.capture_hz == motion_clip.capture_hz and again.metadata == motion_clip.metadata
     assert path.read_bytes() == write_clip(again, tmp_path / "third.parquet").read_bytes()
+
+
+def test_arrays_round_trip_is_exact_and_mapped(motion_clip, tmp_path):
+    again = read_clip_arrays(write_clip_arrays(motion_clip, tmp_path / "arrays"))
+    for name in ("time_s", "keypoints_m", "ball_m", "engine_position_m", "track_id", "team", "role", "jersey"):
+        np.testing.assert_array_equal(getattr(again, name), getattr(motion_clip, name))
+        assert getattr(again, name).dtype == getattr(motion_clip, name).dtype, name
+    assert isinstance(again.keypoints_m, np.memmap) and not again.keypoints_m.flags.writeable  # mapped, not read
+    assert again.capture_hz == motion_clip.capture_hz and again.metadata == motion_clip.metadata
+    original = write_clip(motion_clip, tmp_path / "original.parquet").read_bytes()
+    assert write_clip(again, tmp_path / "mapped.parquet").read_bytes() == original
 
 
 def test_readable_by_plain_pyarrow_with_units():

@@ -104,8 +104,11 @@ class _Bars:
 
 
 def run(args) -> int:
+    from simgen.pipeline.dataset_run import ARROW_ENVIRONMENT, generate
+
+    for name, value in ARROW_ENVIRONMENT.items():  # before Arrow's first allocation; workers inherit it
+        os.environ.setdefault(name, value)
     from simgen.motion.engine import check_level
-    from simgen.pipeline.dataset_run import generate
 
     scenario = _resolve(args)
     if args.workers < 1 or args.workers > 4 * (os.cpu_count() or 1):

@@ -166,3 +166,38 @@ def read_clip(path: str | Path) -> MotionClip:
         capture_hz=capture_hz,
         metadata=metadata,
     )
+
+
+FRAME_ARRAYS = ("time_s", "keypoints_m", "ball_m", "engine_position_m")  # MotionClip fields with a frame axis
+
+
+def write_clip_arrays(clip: MotionClip, directory: str | Path) -> Path:
+    """The clip as uncompressed arrays for `read_clip_arrays` to map: one `.npy` per field with a
+    frame axis and `clip.json` (roster, capture rate, metadata), each file written atomically.
+    `simgen generate` keeps a captured clip so between its capture and its shards."""
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    for name in FRAME_ARRAYS:
+        with atomic_path(directory / f"{name}.npy") as tmp, open(tmp, "wb") as file:
+            np.save(file, getattr(clip, name), allow_pickle=False)
+    roster = {name: getattr(clip, name).tolist() for name in ("track_id", "team", "role", "jersey")}
+    with atomic_path(directory / "clip.json") as tmp:
+        tmp.write_text(json.dumps({**roster, "capture_hz": clip.capture_hz, "metadata": clip.metadata}, sort_keys=True))
+    return directory
+
+
+def read_clip_arrays(directory: str | Path) -> MotionClip:
+    """A clip `write_clip_arrays` wrote, its per-frame arrays memory-mapped read-only: a shard of a
+    whole match keeps in memory only the frames it renders (a match's motion is about 200 MiB)."""
+    directory = Path(directory)
+    info = json.loads((directory / "clip.json").read_text())
+    arrays = {name: np.load(directory / f"{name}.npy", mmap_mode="r", allow_pickle=False) for name in FRAME_ARRAYS}
+    return MotionClip(
+        **arrays,
+        track_id=np.array(info["track_id"], dtype=np.int32),
+        team=np.array(info["team"]),
+        role=np.array(info["role"]),
+        jersey=np.array(info["jersey"], dtype=np.int16),
+        capture_hz=info["capture_hz"],
+        metadata=info["metadata"],
+    )

@@ -4,8 +4,8 @@ A clip is made in three kinds of work unit, each a plain-data job that runs in t
 spawned worker process or a Ray task:
 
 1. capture: the engine plays the clip's match (it must play in order, so once per clip) and its
-   motion is stored in the run state (`.simgen/motion/NNNN.parquet`), with the clip's shard plan
-   (`NNNN.json`, written last): frame ranges of at most `shard_frames` frames.
+   motion is stored in the run state (`.simgen/motion/NNNN/`, arrays that shards memory-map), with
+   the clip's shard plan (`NNNN.json`, written last): frame ranges of at most `shard_frames` frames.
 2. shard: a frame range rendered, labelled and streamed to disk frame by frame (memory stays flat
    whatever the clip's length). A clip of one shard is written straight to its final files;
    otherwise KITTI and OpenPCDet shards write their per-frame files in place and the other formats
@@ -21,7 +21,9 @@ stops a second run from writing into the same directory.
 
 from __future__ import annotations
 
+import ctypes
 import fcntl
+import gc
 import json
 import math
 import os
@@ -44,6 +46,12 @@ CARD_NAME = "README.md"  # simgen.datasets.write.CARD_NAME (not imported: worker
 Progress = Callable[[str, int, int], None]
 AUTO_SHARD_MAX_FRAMES = 3000  # automatic shards: at most 5 minutes of 10 Hz frames lost to a kill
 CAPTURE_REPORT_FRAMES = 50  # motion frames captured between progress reports
+#: Arrow on the C heap: its default pool (mimalloc in pyarrow 26) keeps what it frees for reuse, about
+#: 50 MiB more at the peak of a clip's shards and their assembly (bench_stream, 100 frames in two
+#: shards: 542 -> 492 MiB). Arrow reads it at its first allocation: `simgen generate` sets it before,
+#: for itself, its workers and its Ray tasks.
+ARROW_ENVIRONMENT = {"ARROW_DEFAULT_MEMORY_POOL": "system"}
+_MALLOC_TRIM = getattr(ctypes.CDLL(None), "malloc_trim", None)  # glibc's; None elsewhere
 
 
 @dataclass(frozen=True)
@@ -66,7 +74,7 @@ def _state(root: Path, *parts: str) -> Path:
 
 
 def motion_path(root: Path, clip_index: int) -> Path:
-    return _state(root, "motion", f"{clip_index:04d}.parquet")
+    return _state(root, "motion", f"{clip_index:04d}")
 
 
 def plan_path(root: Path, clip_index: int) -> Path:
@@ -107,7 +115,7 @@ def writes_in_place(format: str, shards: int) -> bool:
 
 def run_capture(job: Job, progress: Progress) -> dict:
     """Capture the clip's motion into the run state; returns its plan {"frames", "shards"}."""
-    from simgen.motion.clip_io import write_clip
+    from simgen.motion.clip_io import write_clip_arrays
     from simgen.motion.engine import capture_motion
     from simgen.pipeline.clip import engine_seed, frame_count
 
@@ -125,8 +133,7 @@ def run_capture(job: Job, progress: Progress) -> dict:
     clip = capture_motion(scenario.motion, engine_seed(scenario, job.clip_index), tick)
     progress("captured", job.clip_index, unreported[0])
     frames = frame_count(scenario, clip)
-    motion_path(root, job.clip_index).parent.mkdir(parents=True, exist_ok=True)
-    write_clip(clip, motion_path(root, job.clip_index))
+    write_clip_arrays(clip, motion_path(root, job.clip_index))
     plan = {"frames": frames, "shards": shard_ranges(frames, job.shard_frames, job.min_shards)}
     _write_json(plan_path(root, job.clip_index), plan)
     return plan
@@ -136,7 +143,7 @@ def run_shard(job: Job, progress: Progress) -> dict:
     """Render and write one shard of a clip, frame by frame; returns its `ClipRecord` as a dict
     (the clip's own when the shard is the whole clip)."""
     from simgen.datasets.write import ClipWriter
-    from simgen.motion.clip_io import read_clip
+    from simgen.motion.clip_io import read_clip_arrays
     from simgen.pipeline.clip import clip_name, render_frames
     from simgen.scan.sensor_rig import sensor_infos
 
@@ -151,7 +158,7 @@ def run_shard(job: Job, progress: Progress) -> dict:
     else:
         target, target_format = shard_root(root, job.clip_index, first), "parquet"
         target.mkdir(parents=True, exist_ok=True)
-    clip = read_clip(motion_path(root, job.clip_index))
+    clip = read_clip_arrays(motion_path(root, job.clip_index))
     with ClipWriter(target, target_format, clip_name(job.clip_index), job.clip_index, sensor_infos(scenario), first) as writer:
         for frame in render_frames(scenario, clip, job.clip_index, first, stop):
             writer.add(frame)
@@ -194,7 +201,22 @@ RUNNERS = {"capture": run_capture, "shard": run_shard, "assemble": run_assemble}
 
 
 def run_job(job: Job, progress: Progress | None = None) -> dict:
-    return RUNNERS[job.kind](job, progress or (lambda *_: None))
+    try:
+        return RUNNERS[job.kind](job, progress or (lambda *_: None))
+    finally:
+        release_memory()
+
+
+def release_memory() -> None:
+    """Hand what the last job freed back to the OS (Arrow's pool, the C heap), so that a process's
+    peak is its largest job's rather than that job plus what earlier ones left in the allocators
+    (a clip's capture, then its shards, then their assembly)."""
+    import pyarrow
+
+    gc.collect()
+    pyarrow.default_memory_pool().release_unused()
+    if _MALLOC_TRIM is not None:
+        _MALLOC_TRIM(0)
 
 
 class OutputLock:
@@ -316,7 +338,7 @@ class _Clips:
     def _clean(self, clip_index: int) -> None:
         """The run state of a done clip: its motion and shards are no longer needed."""
         shutil.rmtree(_state(self.root, "shards", f"{clip_index:04d}"), ignore_errors=True)
-        motion_path(self.root, clip_index).unlink(missing_ok=True)
+        shutil.rmtree(motion_path(self.root, clip_index), ignore_errors=True)
         plan_path(self.root, clip_index).unlink(missing_ok=True)
 
 
@@ -369,7 +391,8 @@ def run_ray(clips: _Clips, address: str | None) -> list[dict]:
     from ray.util.queue import Queue
 
     try:
-        ray.init(address=address, logging_level="ERROR", log_to_driver=False)
+        environment = {name: os.environ.get(name, value) for name, value in ARROW_ENVIRONMENT.items()}
+        ray.init(address=address, logging_level="ERROR", log_to_driver=False, runtime_env={"env_vars": environment})
     except (ConnectionError, ValueError) as error:
         raise UserError(f"cannot reach the Ray cluster at {address!r}: {error}") from None
     try:
