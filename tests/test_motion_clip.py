@@ -104,6 +104,25 @@ def test_arrays_round_trip_is_exact_and_mapped(motion_clip, tmp_path):
     assert write_clip(again, tmp_path / "mapped.parquet").read_bytes() == original
 
 
+def test_unreadable_arrays_are_one_line(motion_clip, tmp_path):
+    def refused(directory):
+        with pytest.raises(UserError) as error:
+            read_clip_arrays(directory)
+        assert "\n" not in str(error.value) and str(directory) in str(error.value)
+
+    refused(tmp_path / "absent")
+    truncated = write_clip_arrays(motion_clip, tmp_path / "truncated")
+    (truncated / "keypoints_m.npy").write_bytes((truncated / "keypoints_m.npy").read_bytes()[:1000])
+    refused(truncated)
+    short = write_clip_arrays(motion_clip, tmp_path / "short")
+    np.save(short / "ball_m.npy", motion_clip.ball_m[:-1])
+    refused(short)
+    (short / "clip.json").write_text("{not json")
+    refused(short)
+    (short / "clip.json").write_text("[]")
+    refused(short)
+
+
 def test_readable_by_plain_pyarrow_with_units():
     table = pq.read_table(MOTION_FIXTURE)
     assert b"metres" in table.schema.field("keypoints_m").metadata[b"doc"]

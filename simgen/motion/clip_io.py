@@ -190,8 +190,17 @@ def read_clip_arrays(directory: str | Path) -> MotionClip:
     """A clip `write_clip_arrays` wrote, its per-frame arrays memory-mapped read-only: a shard of a
     whole match keeps in memory only the frames it renders (a match's motion is about 200 MiB)."""
     directory = Path(directory)
-    info = json.loads((directory / "clip.json").read_text())
-    arrays = {name: np.load(directory / f"{name}.npy", mmap_mode="r", allow_pickle=False) for name in FRAME_ARRAYS}
+    try:
+        info = json.loads((directory / "clip.json").read_text())
+        arrays = {name: np.load(directory / f"{name}.npy", mmap_mode="r", allow_pickle=False) for name in FRAME_ARRAYS}
+    except (OSError, ValueError) as error:  # missing, truncated or foreign files (JSONDecodeError is a ValueError)
+        raise UserError(f"{directory}: not a readable motion capture ({type(error).__name__}: {(str(error).splitlines() or [''])[0]})") from None
+    if not isinstance(info, dict) or not {"capture_hz", "metadata"} <= info.keys():
+        raise UserError(f"{directory}: a motion capture without its clip.json fields")
+    humanoids = arrays["keypoints_m"].shape[1] if arrays["keypoints_m"].ndim == 4 else -1
+    roster = ("track_id", "team", "role", "jersey")
+    if len({len(array) for array in arrays.values()}) != 1 or any(len(info.get(name, ())) != humanoids for name in roster):
+        raise UserError(f"{directory}: a motion capture whose arrays disagree on frames or humanoids")
     return MotionClip(
         **arrays,
         track_id=np.array(info["track_id"], dtype=np.int32),
