@@ -3,6 +3,8 @@
 Columns: frame, time_s, track_id, team, role, jersey, keypoints_m (12 x (x, y, z) flattened, in
 the order of `simgen.vocab.KEYPOINT_NAMES`), engine_position_m, ball_m. Units and the
 pitch frame are in the field and schema metadata, so pandas, polars and duckdb read it as is.
+`write_clip_arrays` / `read_clip_arrays` keep a clip as uncompressed `.npy` arrays instead, for
+`simgen generate`'s run state: its shards map them and touch only the frames they render.
 """
 
 from __future__ import annotations
