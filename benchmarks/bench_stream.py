@@ -33,21 +33,28 @@ from pathlib import Path
 
 import numpy as np
 
+from simgen.pipeline.dataset_run import AUTO_SHARD_MAX_FRAMES
+
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "full_match.yaml"
 MATCH_FRAMES = 54_000
+
+
+def _measured(command: list[str], report: Path) -> dict:
+    """Run `command` under measure_child.py (which keeps this process's RSS out of the child's peak);
+    its usage: exit_code, peak_bytes, cpu_s, minor_faults."""
+    launcher = [sys.executable, str(ROOT / "benchmarks" / "measure_child.py"), str(report)]
+    subprocess.run([*launcher, *command], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
+    return json.loads(report.read_text())
 
 
 def _generate(out: Path, frames: int, shard_frames: int = 0) -> tuple[float, float, int]:
     """Wall seconds, peak RSS (MiB) and minor page faults of one `simgen generate` process."""
     command = [sys.executable, "-m", "simgen.cli", "generate", str(SCENARIO), "-o", str(out), "--clips", "1", "--frames", str(frames)]
     command += ["--shard-frames", str(shard_frames)] if shard_frames else []
-    report = out.parent / f"usage-{frames}-{shard_frames}"
-    launcher = [sys.executable, str(ROOT / "benchmarks" / "measure_child.py"), str(report)]  # keeps this process's RSS out
     started = time.perf_counter()
-    subprocess.run([*launcher, *command], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
+    usage = _measured(command, out.parent / f"usage-{frames}-{shard_frames}")
     seconds = time.perf_counter() - started
-    usage = json.loads(report.read_text())
     if usage["exit_code"] != 0:
         raise SystemExit(f"simgen generate --frames {frames} failed")
     return seconds, usage["peak_bytes"] / 2**20, usage["minor_faults"]
@@ -83,10 +90,10 @@ def _match_motion(clip, directory: Path) -> dict[str, float]:
     paths = {"imports": "", "parquet": write_clip(match, directory / "match.parquet"), "arrays": write_clip_arrays(match, directory / "match")}
     peaks = {}
     for mode, path in paths.items():
-        report = directory / f"usage-{mode}"
-        launcher = [sys.executable, str(ROOT / "benchmarks" / "measure_child.py"), str(report)]
-        subprocess.run([*launcher, sys.executable, "-c", SHARD_POSES, mode, str(path), str(paths["arrays"])], cwd=ROOT, check=True)
-        peaks[mode] = json.loads(report.read_text())["peak_bytes"] / 2**20
+        usage = _measured([sys.executable, "-c", SHARD_POSES, mode, str(path), str(paths["arrays"])], directory / f"usage-{mode}")
+        if usage["exit_code"] != 0:
+            raise SystemExit(f"posing the match's motion ({mode}) failed")
+        peaks[mode] = usage["peak_bytes"] / 2**20
     return peaks
 
 
@@ -119,7 +126,7 @@ def main() -> None:
     _capture_and_render(3)  # compile the numba kernels once, outside every measure
     with tempfile.TemporaryDirectory() as tmp:
         runs = {n: _generate(Path(tmp) / f"f{n}", n) for n in sizes}
-        # the largest N is rendered in shards (automatic: at most 3,000 frames each) and joined: the
+        # the largest N is rendered in shards (automatic: at most AUTO_SHARD_MAX_FRAMES each) and joined: the
         # smallest N sharded in two, the same code path, is its like-for-like baseline
         sharded_base = _generate(Path(tmp) / "sharded", sizes[0], max(sizes[0] // 2, 1))
     largest = sizes[-1]
@@ -146,7 +153,7 @@ def main() -> None:
         f"`simgen generate scenarios/full_match.yaml --clips 1 --frames N --workers 1` on this machine ({os.cpu_count()} cores, shared).\n\n"
         "Peak RSS of the one process (capture, rendering, writing), against the smallest N of the same run:\n\n"
         "| frames per clip | peak RSS, MiB | ratio |\n|---|---|---|\n" + "\n".join(rss_rows) + "\n\n"
-        f"Shards: {largest:,} frames are rendered as {-(-largest // 3000)} shards and joined (reading the partial clips "
+        f"Shards: {largest:,} frames are rendered as {-(-largest // AUTO_SHARD_MAX_FRAMES)} shards and joined (reading the partial clips "
         f"back); {sizes[0]:,} frames in two shards of {max(sizes[0] // 2, 1):,} take that path too: peak {sharded_base[1]:,.0f} MiB, "
         f"so {largest:,} frames are {runs[largest][1] / sharded_base[1]:.2f}x the same path at {sizes[0]:,} frames.\n\n"
         f"Where {largest:,} frames' time goes, frames/s of one core (ratio: end to end seconds / the part's seconds):\n\n"

@@ -171,6 +171,7 @@ def read_clip(path: str | Path) -> MotionClip:
 
 
 FRAME_ARRAYS = ("time_s", "keypoints_m", "ball_m", "engine_position_m")  # MotionClip fields with a frame axis
+ROSTER = ("track_id", "team", "role", "jersey")  # MotionClip fields with a humanoid axis only
 
 
 def write_clip_arrays(clip: MotionClip, directory: str | Path) -> Path:
@@ -182,7 +183,7 @@ def write_clip_arrays(clip: MotionClip, directory: str | Path) -> Path:
     for name in FRAME_ARRAYS:
         with atomic_path(directory / f"{name}.npy") as tmp, open(tmp, "wb") as file:
             np.save(file, getattr(clip, name), allow_pickle=False)
-    roster = {name: getattr(clip, name).tolist() for name in ("track_id", "team", "role", "jersey")}
+    roster = {name: getattr(clip, name).tolist() for name in ROSTER}
     with atomic_path(directory / "clip.json") as tmp:
         tmp.write_text(json.dumps({**roster, "capture_hz": clip.capture_hz, "metadata": clip.metadata}, sort_keys=True))
     return directory
@@ -200,8 +201,7 @@ def read_clip_arrays(directory: str | Path) -> MotionClip:
     if not isinstance(info, dict) or not {"capture_hz", "metadata"} <= info.keys():
         raise UserError(f"{directory}: a motion capture without its clip.json fields")
     humanoids = arrays["keypoints_m"].shape[1] if arrays["keypoints_m"].ndim == 4 else -1
-    roster = ("track_id", "team", "role", "jersey")
-    if len({len(array) for array in arrays.values()}) != 1 or any(len(info.get(name, ())) != humanoids for name in roster):
+    if len({len(array) for array in arrays.values()}) != 1 or any(len(info.get(name, ())) != humanoids for name in ROSTER):
         raise UserError(f"{directory}: a motion capture whose arrays disagree on frames or humanoids")
     return MotionClip(
         **arrays,
