@@ -6,7 +6,7 @@ VENV := .venv
 SIMGEN := $(VENV)/bin/simgen
 DEMO_OUT := datasets/demo
 
-.PHONY: setup demo test bench clean
+.PHONY: setup demo test bench lock clean
 
 setup:
 	@bash scripts/setup.sh
@@ -23,6 +23,9 @@ test: setup
 
 bench: setup
 	@for bench in benchmarks/bench_*.py; do echo "== $$bench"; $(VENV)/bin/python $$bench || exit 1; done
+
+lock:  # refresh requirements.lock to the newest releases pyproject.toml allows (then run make test)
+	@bash scripts/lock.sh
 
 clean:
 	rm -rf $(VENV) .pytest_cache .hypothesis

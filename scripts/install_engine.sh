@@ -6,6 +6,7 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 venv=${VENV:-$root/.venv}
 version=2.10.2
+sdist_sha256=1b0fdcfa78b7fadc3730585ee7f0f412ba825c27e422b2b85ea0cf7ba57800b6  # PyPI's gfootball-2.10.2.tar.gz
 patch_file=$root/engine/gfootball-keypoints.patch
 key=$version-$(sha256sum "$patch_file" | cut -c1-12)
 cache=${SIMGEN_CACHE:-$HOME/.cache/simgen}/engine/gfootball-$key
@@ -20,7 +21,8 @@ if ! ls "$cache"/gfootball-*.whl >/dev/null 2>&1; then
   echo "engine: building gfootball $version with the keypoint export (7-9 minutes on 2 cores; cached in $cache)"
   work=$(mktemp -d)
   trap 'rm -rf "$work"' EXIT
-  "$venv/bin/pip" download --quiet --no-deps --no-binary :all: "gfootball==$version" -d "$work"
+  echo "gfootball==$version --hash=sha256:$sdist_sha256" > "$work/engine.txt"
+  "$venv/bin/pip" download --quiet --no-deps --no-binary :all: --require-hashes -r "$work/engine.txt" -d "$work"
   tar xzf "$work/gfootball-$version.tar.gz" -C "$work"
   src=$work/gfootball-$version
   patch --quiet -p1 -d "$src" < "$patch_file"

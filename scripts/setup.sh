@@ -24,21 +24,20 @@ else
   echo "setup: Debian packages present"
 fi
 
-# 2. The virtual environment, keyed by the hash of pyproject.toml.
+# 2. The virtual environment: exactly requirements.lock (every package pinned and hashed; refreshed by
+#    `make lock`), then simgen itself, editable. It is rebuilt from scratch whenever the lock or
+#    pyproject.toml changes, so it never keeps a package the lock no longer names.
 python=$(command -v python3.11 || command -v python3)
-if [ ! -x "$venv/bin/python" ]; then
-  echo "setup: creating $venv with $($python --version)"
-  "$python" -m venv "$venv"
-fi
-deps_key=$(sha256sum pyproject.toml | cut -c1-12)
+deps_key=$(cat requirements.lock pyproject.toml | sha256sum | cut -c1-12)
 if [ ! -f "$venv/.deps-$deps_key" ]; then
-  echo "setup: installing Python dependencies into $venv (first time: a few minutes)"
-  "$venv/bin/pip" install --quiet --upgrade pip setuptools wheel 2> >(grep -v "WARNING: Location" >&2)
-  "$venv/bin/pip" install --quiet -e ".[test]" 2> >(grep -v "WARNING: Location" >&2)
-  rm -f "$venv"/.deps-*
+  [ -d "$venv" ] && echo "setup: requirements.lock or pyproject.toml changed: rebuilding $venv" && rm -rf "$venv"
+  echo "setup: creating $venv with $($python --version) and installing requirements.lock (first time: a few minutes)"
+  "$python" -m venv "$venv"
+  "$venv/bin/python" -m pip install --quiet --require-hashes -r requirements.lock 2> >(grep -v "WARNING: Location" >&2)
+  PYTHONWARNINGS=ignore "$venv/bin/python" -m pip install --quiet --no-deps --no-build-isolation -e . 2> >(grep -v "WARNING: Location" >&2)
   touch "$venv/.deps-$deps_key"
 else
-  echo "setup: Python dependencies up to date"
+  echo "setup: Python dependencies match requirements.lock"
 fi
 
 # 3. The football engine with the keypoint export.
