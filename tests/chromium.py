@@ -3,6 +3,12 @@
 `evaluate(url, expression)` opens the page in a fresh profile, waits for its load event, and returns
 the value of a JavaScript expression (a promise is awaited), over `--remote-debugging-pipe`
 (null-terminated JSON messages on file descriptors 3 and 4): no port, no extra package.
+`run(*arguments)` runs Chromium once (`--dump-dom`, `--screenshot`) in a fresh profile.
+
+Chromium is a tree of processes (browser, renderer, GPU, utility, crash handler) that go on writing
+into the profile for a while after the browser process ends. Each browser therefore runs in a process
+group of its own (`browser`): the whole group is ended and waited for before its profile is removed,
+so a test under load never races a renderer still writing its cache.
 """
 
 from __future__ import annotations
@@ -12,9 +18,12 @@ import functools
 import http.server
 import json
 import os
+import shutil
+import signal
 import subprocess
 import tempfile
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -82,24 +91,89 @@ class _Pipe:
         return self.wait(self.send(method, params, session)).get("result", {})
 
 
+def _group_alive(group: int) -> bool:
+    """Whether any process of process group `group` is still running (zombies do not count)."""
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:  # the process ended while we looked
+            continue
+        if int(fields[2]) == group and fields[0] != "Z":  # fields after the name: state, ppid, pgrp
+            return True
+    return False
+
+
+def _kill_group(group: int) -> None:
+    with contextlib.suppress(ProcessLookupError):
+        os.killpg(group, signal.SIGKILL)
+
+
+def _end_group(process: subprocess.Popen, grace_s: float = 5.0, limit_s: float = 30.0) -> None:
+    """End Chromium's whole process group: the browser first gets `grace_s` to close by itself (its
+    pipe or stdin closed), then every member is killed, and this waits (up to `limit_s`) until none runs."""
+    try:
+        process.wait(timeout=grace_s)
+    except subprocess.TimeoutExpired:
+        pass
+    _kill_group(process.pid)
+    process.wait()
+    deadline = time.monotonic() + limit_s
+    while _group_alive(process.pid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+
+
+def _remove_profile(profile: Path, limit_s: float = 10.0) -> None:
+    """Remove a profile folder; a file that appears while removing it only costs another pass."""
+    deadline = time.monotonic() + limit_s
+    while profile.exists():
+        try:
+            shutil.rmtree(profile)
+        except OSError:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.1)
+
+
+@contextlib.contextmanager
+def browser(arguments: list[str], **popen) -> Iterator[subprocess.Popen]:
+    """Chromium with `arguments` in a fresh profile and a process group of its own; on exit the group
+    is ended and waited for, then the profile removed."""
+    require_chromium()
+    profile = Path(tempfile.mkdtemp(prefix="chromium-profile-"))
+    try:
+        process = subprocess.Popen([str(CHROMIUM), *FLAGS, f"--user-data-dir={profile}", *arguments], process_group=0, **popen)
+        try:
+            yield process
+        finally:
+            _end_group(process)
+    finally:
+        _remove_profile(profile)
+
+
+def run(*arguments: str, timeout_s: float = 120.0) -> subprocess.CompletedProcess:
+    """Chromium run once with `arguments` (e.g. `--dump-dom URL`); its output as text."""
+    with browser(list(arguments), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as process:
+        try:
+            stdout, stderr = process.communicate(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            _kill_group(process.pid)
+            raise
+    return subprocess.CompletedProcess(process.args, process.returncode, stdout, stderr)
+
+
 def evaluate(url: str, expression: str, timeout_s: float = 60.0):
     """The value of `expression` in the page at `url`, after its load event (promises awaited)."""
-    require_chromium()
     to_chromium, from_chromium = os.pipe(), os.pipe()
-    with tempfile.TemporaryDirectory(prefix="chromium-profile-") as profile:
 
-        def descriptors() -> None:  # Chromium reads commands on fd 3 and writes replies on fd 4
-            os.dup2(to_chromium[0], 3)
-            os.dup2(from_chromium[1], 4)
+    def descriptors() -> None:  # Chromium reads commands on fd 3 and writes replies on fd 4
+        os.dup2(to_chromium[0], 3)
+        os.dup2(from_chromium[1], 4)
 
-        process = subprocess.Popen(
-            [str(CHROMIUM), *FLAGS, f"--user-data-dir={profile}", "--remote-debugging-pipe",
-             "--autoplay-policy=no-user-gesture-required", "about:blank"],
-            pass_fds=(3, 4), preexec_fn=descriptors, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        )
+    arguments = ["--remote-debugging-pipe", "--autoplay-policy=no-user-gesture-required", "about:blank"]
+    with browser(arguments, pass_fds=(3, 4), preexec_fn=descriptors, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) as process:
         os.close(to_chromium[0])
         os.close(from_chromium[1])
-        timer = threading.Timer(timeout_s, process.kill)  # a page that never answers ends the browser, and the test
+        timer = threading.Timer(timeout_s, _kill_group, (process.pid,))  # a page that never answers ends the test
         timer.start()
         try:
             pipe = _Pipe(to_chromium[1], from_chromium[0])
@@ -114,7 +188,7 @@ def evaluate(url: str, expression: str, timeout_s: float = 60.0):
             return reply["result"].get("value")
         finally:
             timer.cancel()
-            process.kill()
-            process.wait()
+            with contextlib.suppress(OSError, RuntimeError):
+                pipe.send("Browser.close")  # a clean exit: the browser closes its profile itself
             os.close(to_chromium[1])
             os.close(from_chromium[0])

@@ -598,7 +598,7 @@ def test_hostile_input_in_real_processes(tmp_path, written):
 
 
 @pytest.mark.parametrize("document, problem", [
-    ("a: " + "[" * 5000 + "]" * 5000 + "\n", f"nested deeper than {MAX_YAML_DEPTH} levels"),
+    ("a: " + "[" * (MAX_YAML_DEPTH + 8) + "]" * (MAX_YAML_DEPTH + 8) + "\n", f"nested deeper than {MAX_YAML_DEPTH} levels"),
     ("\n".join([f"l0: &l0 [{', '.join(['x'] * 10)}]"] + [f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 10)}]" for i in range(1, 9)]) + "\n",
      f"aliases expand to more than {MAX_YAML_NODES:,} nodes"),
     ("pattern: {}\npattern: {}\n", "duplicate key 'pattern'"),
@@ -617,6 +617,21 @@ def test_every_yaml_the_project_reads_goes_through_one_reader(tmp_path, document
     for load in (load_scenario, load_config, load_tolerances):
         with pytest.raises(UserError, match="not a regular file"):
             load("/dev/zero")
+
+
+def test_nesting_beyond_any_parser_is_refused_in_one_line_naming_the_file(tmp_path):
+    """5,000 levels: refused in one line that names the file, whichever layer refuses first (our depth
+    check, or a YAML library that now stops deep documents while scanning ahead)."""
+    from simgen.qa.tolerances import load_tolerances
+    from simgen.scenario import load_scenario
+    from train.config import load_config
+
+    path = tmp_path / "deep.yaml"
+    path.write_text("a: " + "[" * 5000 + "]" * 5000 + "\n")
+    for load in (load_scenario, load_config, load_tolerances):
+        with pytest.raises(UserError) as error:
+            load(path)
+        assert str(error.value).startswith(f"{path}: ") and "\n" not in str(error.value)
 
 
 def _in_a_full_file_system(arguments: list, size_kib: int, options: str = "rw") -> subprocess.CompletedProcess:

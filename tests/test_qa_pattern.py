@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import re
-import subprocess
 
 import cv2
 import pytest
 import yaml
-from chromium import CHROMIUM, FLAGS, require_chromium
+import chromium
 from conftest import run_simgen
 
 from simgen.cli import main
@@ -44,7 +43,6 @@ def test_the_papers_rose_fails_where_it_differs_from_the_sensor(tmp_path):
 
 
 def test_chromium_shows_the_report_alone_with_every_image_loaded(risley, tmp_path):
-    require_chromium()
     out, _ = risley
     alone = tmp_path / "attached"  # index.html on its own, as attached to a ticket
     alone.mkdir()
@@ -54,15 +52,10 @@ def test_chromium_shows_the_report_alone_with_every_image_loaded(risley, tmp_pat
     assert len(sources) == expected and all(src.startswith("data:image/png;base64,") for src in sources)
     url = (alone / "index.html").as_uri()
 
-    def chromium(*args: str) -> subprocess.CompletedProcess:
-        profile = tmp_path / f"profile-{len(list(tmp_path.iterdir()))}"
-        return subprocess.run([str(CHROMIUM), *FLAGS, f"--user-data-dir={profile}", *args, url],
-                              capture_output=True, text=True, timeout=120)
-
-    dom = chromium("--virtual-time-budget=10000", "--dump-dom").stdout
+    dom = chromium.run("--virtual-time-budget=10000", "--dump-dom", url).stdout
     assert f'data-images-loaded="{expected}/{expected}"' in dom, dom[:500]
     shot = tmp_path / "report.png"
-    chromium(f"--screenshot={shot}", "--window-size=1400,3000")
+    chromium.run(f"--screenshot={shot}", "--window-size=1400,3000", url)
     image = cv2.imread(str(shot))
     assert image.shape == (3000, 1400, 3) and image.std() > 20  # a page, not a blank one
 
