@@ -153,7 +153,7 @@ def sensors_table(sensors: Sequence[SensorInfo]) -> pa.Table:
     )
 
 
-def _writer(path: Path, name: str) -> pq.ParquetWriter:
+def table_writer(path: Path, name: str) -> pq.ParquetWriter:
     """A Parquet writer of table `name` with the fixed options that keep bytes reproducible."""
     schema = with_table_metadata(TABLES[name], name)
     floats = [f.name for f in schema if pa.types.is_floating(f.type)]  # byte-stream-split compresses them best
@@ -181,7 +181,7 @@ class ParquetClipStream:
             path = self.root / table_path(name, clip)
             path.parent.mkdir(parents=True, exist_ok=True)
             self._tmp[name] = self._files.enter_context(atomic_path(path))
-        self._writers = {name: _writer(self._tmp[name], name) for name in self.TABLES}
+        self._writers = {name: table_writer(self._tmp[name], name) for name in self.TABLES}
         self._rows = dict.fromkeys(self.TABLES, 0)
         self._frame_rows: list[dict] = []
         self._labels: list[tuple[int, FrameLabels]] = []
@@ -282,7 +282,7 @@ def write_parquet_sensors(root: Path, sensors: Sequence[SensorInfo]) -> FileReco
     """The dataset's one `sensors` table."""
     table = sensors_table(sorted(sensors, key=lambda s: s.sensor_id))
     (root / SENSORS_PATH).parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(root / SENSORS_PATH) as tmp, _writer(tmp, "sensors") as writer:
+    with atomic_path(root / SENSORS_PATH) as tmp, table_writer(tmp, "sensors") as writer:
         writer.write_table(table, row_group_size=max(len(table), 1))
     return record_file(root, SENSORS_PATH, len(table))
 
