@@ -6,8 +6,10 @@ The figures in docs/reliability.md come from the constants and counts asserted h
 from __future__ import annotations
 
 import json
+import math
 import os
 import random
+import resource
 import signal
 import subprocess
 import sys
@@ -26,6 +28,7 @@ from simgen.scenario import parse_scenario
 
 SMOKE = ROOT / "scenarios" / "smoke.yaml"
 KILL_ROUNDS = 6  # generation runs killed at a random moment (each then resumed, maybe killed again)
+MAX_KILLS_PER_ROUND = 3  # then the resumed run is left to finish
 GENERATED_CONFIGS = 600  # hypothesis examples of mutated scenarios
 SMALL = ("--frames", "4", "--clips", "2")
 
@@ -178,13 +181,32 @@ def test_generated_bad_configs_are_one_line_errors():
     assert outcomes["rejected"] >= 0.8 * sum(outcomes.values())
 
 
+def _children_cpu_s() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _group_cpu_s(group: int) -> float:
+    """CPU seconds spent so far by process group `group`: its live members and the children they reaped."""
+    total = 0
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[2]) == group:  # fields from the state on: pgrp is the 3rd, utime .. cstime the 12th-15th
+            total += sum(int(v) for v in fields[11:15])
+    return total / os.sysconf("SC_CLK_TCK")
+
+
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
+    """The uninterrupted run and the CPU seconds it took (its processes', whatever else the machine runs)."""
     out = tmp_path_factory.mktemp("reference") / "d"
-    started = time.perf_counter()
+    before = _children_cpu_s()
     result = run_simgen("generate", SMOKE, "-o", out, *SMALL)
     assert result.returncode == 0, result.stderr
-    return out, time.perf_counter() - started
+    return out, _children_cpu_s() - before
 
 
 def _shas(root: Path) -> dict[str, str]:
@@ -207,21 +229,26 @@ def _assert_no_partial_files(root: Path, reference_shas: dict[str, str], referen
 
 @pytest.mark.engine
 def test_sigkill_at_random_moments_then_resume(reference, tmp_path):
-    reference, duration_s = reference
+    """Each run is killed once its processes have spent a random 10-80 % of the uninterrupted run's CPU
+    seconds (a moment in the work done, not in wall time, which a loaded machine stretches)."""
+    reference, cpu_s = reference
     rng = random.Random(1234)
     expected = _shas(reference)
     kills = 0
     for round_ in range(KILL_ROUNDS):
         out = tmp_path / f"run{round_}"
         command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), *SMALL]
-        resume = False
+        resume, attempts = False, 0
         # until finished and cleaned up: a run killed after its manifest is resumed too
         while not (out / "manifest.json").exists() or (out / ".simgen" / "scenario.json").exists():
-            process = subprocess.Popen(command + (["--resume"] if resume else []), cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-            try:  # a random moment of an uninterrupted run's duration
-                process.wait(timeout=rng.uniform(0.15, 0.95) * duration_s)
-            except subprocess.TimeoutExpired:
-                process.send_signal(signal.SIGKILL)
+            process = subprocess.Popen(command + (["--resume"] if resume else []), cwd=ROOT, stdout=subprocess.DEVNULL,
+                                       stderr=subprocess.PIPE, process_group=0)
+            target_s = rng.uniform(0.1, 0.8) * cpu_s if attempts < MAX_KILLS_PER_ROUND else math.inf
+            attempts += 1
+            while process.poll() is None and _group_cpu_s(process.pid) < target_s:
+                time.sleep(0.005)
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGKILL)
                 process.wait()
                 kills += 1
             else:
