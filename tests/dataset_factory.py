@@ -54,6 +54,7 @@ def _labels(rng: np.random.Generator, centre: np.ndarray, instance: np.ndarray) 
         velocity_mps=rng.normal(0, 3, (humanoids, 3)).astype(np.float32),
         keypoints_m=(centre[:, None] + rng.normal(0, 0.3, (humanoids, 12, 3))).astype(np.float32),
         num_points=np.array([(instance == t).sum() for t in track_id], np.int32),
+        discontinuity=rng.random(humanoids) < 0.1,  # as if the engine had placed some for a restart
     )
 
 

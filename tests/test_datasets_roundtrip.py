@@ -49,8 +49,9 @@ def test_every_frame_round_trips(datasets, format):
             np.testing.assert_array_equal(frame.class_name, class_names(source.labels.team))
             if format in ("parquet", "kitti_tracking", "mcap"):
                 np.testing.assert_array_equal(frame.track_id, source.labels.track_id)
+                np.testing.assert_array_equal(frame.discontinuity, source.labels.discontinuity)
             else:
-                assert frame.track_id is None
+                assert frame.track_id is None and frame.discontinuity is None
 
 
 def test_parquet_keeps_everything_the_simulator_made(datasets):

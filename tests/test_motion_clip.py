@@ -84,10 +84,14 @@ def test_fixture_left_is_left(motion_clip):
     assert (cross_z > 0).mean() > 0.8
 
 
+CLIP_FIELDS = ("time_s", "keypoints_m", "ball_m", "engine_position_m", "track_id", "team", "role", "jersey",
+               "placed_s", "ball_placed_s", "game_mode")
+
+
 def test_round_trip_is_exact(motion_clip, tmp_path):
     path = write_clip(motion_clip, tmp_path / "again.parquet")
     again = read_clip(path)
-    for name in ("time_s", "keypoints_m", "ball_m", "engine_position_m", "track_id", "team", "role", "jersey"):
+    for name in CLIP_FIELDS:
         np.testing.assert_array_equal(getattr(again, name), getattr(motion_clip, name))
     assert again.capture_hz == motion_clip.capture_hz and again.metadata == motion_clip.metadata
     assert path.read_bytes() == write_clip(again, tmp_path / "third.parquet").read_bytes()
@@ -95,7 +99,7 @@ def test_round_trip_is_exact(motion_clip, tmp_path):
 
 def test_arrays_round_trip_is_exact_and_mapped(motion_clip, tmp_path):
     again = read_clip_arrays(write_clip_arrays(motion_clip, tmp_path / "arrays"))
-    for name in ("time_s", "keypoints_m", "ball_m", "engine_position_m", "track_id", "team", "role", "jersey"):
+    for name in CLIP_FIELDS:
         np.testing.assert_array_equal(getattr(again, name), getattr(motion_clip, name))
         assert getattr(again, name).dtype == getattr(motion_clip, name).dtype, name
     assert isinstance(again.keypoints_m, np.memmap) and not again.keypoints_m.flags.writeable  # mapped, not read

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -41,7 +42,7 @@ def clean_clip(clip: str = "clip_0000", frames: int = 3) -> list[LabelledFrame]:
         boxes = np.array([[*c[:2], 0.9, 0.6, 0.5, 1.8, 0.0] for c in centres], np.float32)
         labels = FrameLabels(boxes, np.array([1, 2], np.int32), np.array(["left", "right"]), np.array(["CM", "CB"]),
                              np.tile(np.float32([1.0, 0.0, 0.0]), (2, 1)), np.zeros((2, 12, 3), np.float32),
-                             np.array([12, 12], np.int32))
+                             np.array([12, 12], np.int32), np.zeros(2, bool))
         out.append(LabelledFrame(clip, index, 1.0 + index / 10, 1.05 + index / 10, scan, labels))
     return out
 
@@ -107,14 +108,15 @@ def test_label_problems_are_reported_at_their_file_and_line(tmp_path, verify_her
         assert int(rows[number - 1].split()[1]) == track  # the line holds that track's box
 
 
-def _frame(boxes, track_id, index=0, points=None, instance=None, num_points=None, velocity=None) -> Frame:
+def _frame(boxes, track_id, index=0, points=None, instance=None, num_points=None, velocity=None, placed=None) -> Frame:
     boxes = np.asarray(boxes, np.float32).reshape(-1, 7)
     points = np.zeros((0, 3), np.float32) if points is None else np.asarray(points, np.float32)
     return Frame("c", index, points, np.zeros(len(points), np.uint8), boxes, np.array(["Pedestrian"] * len(boxes)),
                  track_id=np.asarray(track_id, np.int32),
                  instance_id=None if instance is None else np.asarray(instance, np.int32),
                  num_points=None if num_points is None else np.asarray(num_points, np.int32),
-                 velocity_mps=np.zeros((len(boxes), 3), np.float32) if velocity is None else np.asarray(velocity, np.float32))
+                 velocity_mps=np.zeros((len(boxes), 3), np.float32) if velocity is None else np.asarray(velocity, np.float32),
+                 discontinuity=None if placed is None else np.asarray(placed, bool))
 
 
 def locate(frame, box):
@@ -144,16 +146,77 @@ def test_stored_counts_against_instance_ids_and_the_box():
         "labels.txt:1: 1 point inside the box (grown by 0.30 m), num_points is 2"]
     fast = _frame([BOX], [1], points=[inside, outside], instance=[1, 1], num_points=[2], velocity=[[40.0, 0, 0]])
     assert count_problems(fast, locate, 0.05, TOL) == []  # 40 m/s x 0.05 s: its box reaches the point
+    placed = _frame([BOX], [1], points=[inside, outside], instance=[1, 1], num_points=[2], placed=[True])
+    assert count_problems(placed, locate, 0.05, TOL) == []  # placed mid-sweep: its points lie at both places
+
+
+def test_a_point_after_the_label_time_may_lie_in_the_next_frames_box():
+    """A stride: at 0.09 s into the frame the foot is 0.8 m ahead of the box of 0.05 s, inside the box of the
+    next frame (0.15 s). Accepted there, not when the point is earlier than the label time (then only the
+    previous frame's box counts), and not in a placed neighbour's box."""
+    foot = [10.8, 5.0, 0.3]
+    longer = [10.4, 5.0, 0.9, 1.0, 0.5, 1.8, 0.0]
+
+    def frame(offset_s: float, index: int = 1, **extra) -> Frame:
+        return replace(_frame([BOX[:6] + [0.0]], [1], index=index, points=[foot], instance=[1], num_points=[1], **extra),
+                       time_s=1.0, label_time_s=1.05, time_offset_s=np.float32([offset_s]))
+
+    after, before = _frame([longer], [1], index=2), _frame([BOX[:6] + [0.0]], [1], index=0)
+    assert count_problems(frame(0.09), locate, 0.05, TOL, before, after) == []
+    assert [str(p) for p in count_problems(frame(0.01), locate, 0.05, TOL, before, after)] == [
+        "labels.txt:11: 0 points inside the box (grown by 0.30 m), num_points is 1"]
+    placed_after = replace(after, discontinuity=np.array([True]))
+    assert len(count_problems(frame(0.09), locate, 0.05, TOL, before, placed_after)) == 1
 
 
 def test_track_ids_twice_missing_or_jumping():
     at = np.array([BOX, BOX], np.float32)
     moved = at.copy()
     moved[1, 0] += 2.0  # 2 m in 0.1 s: 20 m/s
-    tracks = [(0, np.array([1, 2]), at), (1, np.array([1, 2]), moved), (2, np.array([2, 2]), moved[[1, 1]]), (4, np.array([1]), at[:1])]
+    tracks = [(0, np.array([1, 2]), at, None), (1, np.array([1, 2]), moved, None), (2, np.array([2, 2]), moved[[1, 1]], None),
+              (4, np.array([1]), at[:1], None)]
     found = [str(p) for p in track_problems(tracks, locate, 10.0, TOL)]
     assert found == [
         "labels.txt:12: track id 2 moved at 20.0 m/s since frame 0 (limit 12)",
         "labels.txt:22: track id 2 appears 2 times in frame 2",
         "labels.txt:41: track id 1 is missing from frames 2-3",
     ]
+
+
+def test_a_jump_is_a_problem_unless_the_engine_placed_the_humanoid():
+    """Speeds are checked within a segment: a flagged jump starts a new one, the same jump unflagged is a teleport."""
+    at = np.array([BOX, BOX], np.float32)
+    far = at.copy()
+    far[:, 0] += 30.0  # both 30 m away a frame later
+    tracks = [(0, np.array([1, 2]), at, None), (1, np.array([1, 2]), far, np.array([True, False])),
+              (2, np.array([1, 2]), far, np.array([False, False]))]
+    assert [str(p) for p in track_problems(tracks, locate, 10.0, TOL)] == [
+        "labels.txt:12: track id 2 moved at 300.0 m/s since frame 0 (limit 12)"]
+
+
+def _placed_30_m_back(frame: LabelledFrame, flagged: bool) -> LabelledFrame:
+    """Humanoid 1 (box 0) and its points 30 m further back along x; its flag as given."""
+    shift = np.float32([-30.0, 0.0, 0.0])
+    scan, labels = frame.scan, frame.labels
+    points = scan.points_m + shift * (scan.instance_id == 1)[:, None]
+    boxes = labels.boxes.copy()
+    boxes[0, :3] += shift
+    return replace(frame, scan=replace(scan, points_m=points.astype(np.float32)),
+                   labels=replace(labels, boxes=boxes, discontinuity=np.array([flagged, False])))
+
+
+def test_verify_tells_a_placement_from_a_teleport(tmp_path, verify_here):
+    """The same 30 m jump in a written dataset: with its discontinuity flag it verifies, without it it is
+    reported at the box's row, in every format that carries track ids."""
+    for fmt in ("parquet", "kitti_tracking", "mcap"):
+        for flagged in (True, False):
+            frames = clean_clip("clip_0000", frames=6)
+            frames[3:] = [_placed_30_m_back(f, flagged and f.index == 3) for f in frames[3:]]
+            root = tmp_path / f"{fmt}_{flagged}"
+            write_dataset(root, fmt, [frames])
+            code, lines, _ = verify_here(root)
+            jumps = [line for line in lines if "moved at" in line]
+            if flagged:
+                assert code == 0 and not jumps, (fmt, lines)
+            else:
+                assert code == 1 and len(jumps) == 1 and "track id 1 moved at" in jumps[0], (fmt, lines)

@@ -49,6 +49,8 @@ def _kitti_layout(tracking: bool, images: bool = False) -> list[str]:
             "- `training/velodyne/SSSS/NNNNNN.bin`: SSSS the clip index, NNNNNN the frame index in the clip",
             "- `training/label_02/SSSS.txt`: `frame track_id type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry`",
             "- `training/calib/SSSS.txt`: KITTI tracking calib (`P0:`-`P3:`, `R_rect`, `Tr_velo_cam`, `Tr_imu_velo`)",
+            "- `training/placements/SSSS.txt`: `frame track_id` of each box with a discontinuity (Restarts, below); KITTI's",
+            "  tracking tools ignore the folder",
         ]
     else:
         files = [
@@ -163,6 +165,12 @@ def dataset_card(manifest: Manifest) -> str:
         f"  labelled (in Parquet its points have instance id {BALL_INSTANCE_ID} and semantic class `ball`).",
         "- Semantic classes of points: " + ", ".join(f"{i} `{name}`" for i, name in enumerate(SEMANTIC_NAMES)) + ".",
         f"- Split: by clip, the last {VAL_FRACTION:.0%} of the clips (at least one of two or more) is `val`.",
+        "- Restarts: before a free kick, goal kick or throw-in the football engine places the players (and the ball)",
+        "  where the restart wants them, in one 10 ms physics step. Nothing is interpolated across a placement: a shot",
+        "  before it sees the humanoid where it was, a shot after it where it was put. Its track id stays (same person);",
+        "  its box in the frames around the placement has `discontinuity` set (Parquet `boxes.discontinuity`, KITTI",
+        "  tracking `training/placements/`, MCAP a `placed` marker in namespace `discontinuity`): the box may jump from the",
+        "  previous frame's, the frame's points of it may lie at both places, and its velocity is taken within its segment.",
         "",
         "## Layout",
         "",

@@ -3,7 +3,7 @@
 Coordinates are the pitch frame's (origin at the centre spot, x towards the right goal, y left,
 z up, metres) whatever the format on disk. Fields a format does not hold are None: KITTI and
 OpenPCDet keep only x, y, z, intensity and the boxes with their class (and KITTI tracking the
-track ids); Parquet keeps everything the simulator made.
+track ids and discontinuity flags); Parquet keeps everything the simulator made.
 """
 
 from __future__ import annotations
@@ -46,3 +46,5 @@ class Frame:
     velocity_mps: NDArray[np.float32] | None = None  # (H, 3)
     keypoints_m: NDArray[np.float32] | None = None  # (H, 12, 3)
     num_points: NDArray[np.int32] | None = None  # (H,)
+    # Parquet, KITTI tracking and MCAP: (H,) placed by the engine since the previous frame (FrameLabels.discontinuity)
+    discontinuity: NDArray[np.bool_] | None = None

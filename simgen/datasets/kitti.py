@@ -5,7 +5,9 @@ kitti:          training/velodyne/NNNNNN.bin, training/label_2/NNNNNN.txt, train
                 optionally training/image_2/NNNNNN.png, blank placeholders of the virtual camera's size
                 (OpenPCDet's KITTI info generation reads every image's shape)
 kitti_tracking: training/velodyne/SSSS/NNNNNN.bin, training/label_02/SSSS.txt (frame and track id
-                first), training/calib/SSSS.txt; SSSS the clip index, NNNNNN the frame index
+                first), training/calib/SSSS.txt, training/placements/SSSS.txt (`frame track_id` of each
+                box whose humanoid the engine placed for a restart: its `discontinuity`; KITTI's
+                tracking tools ignore the folder); SSSS the clip index, NNNNNN the frame index
 
 .bin: float32 x, y, z, intensity / 255 per point, pitch frame. Labels: `Pedestrian` (players) or
 `Official` (referee, linesmen), in the virtual camera of `kitti_camera`; truncation 0; occlusion 0,
@@ -36,6 +38,7 @@ if TYPE_CHECKING:
     from simgen.labels.labelled_frame import LabelledFrame
 
 UNKNOWN_OCCLUSION = 3
+TRACK_ID_SPAN = 1 << 31  # track ids are int32: frame * span + track id is unique
 OPEN_CLIPS = 4  # tracking label files the reader keeps parsed
 
 
@@ -51,6 +54,11 @@ def label_path(tracking: bool, clip_index: int, index: int = 0) -> str:
 
 def calib_path(tracking: bool, clip_index: int, index: int = 0) -> str:
     return f"training/calib/{clip_index:04d}.txt" if tracking else f"training/calib/{sample_name(clip_index, index)}.txt"
+
+
+def placements_path(clip_index: int) -> str:
+    """kitti_tracking's list of the boxes with a discontinuity (`frame track_id` lines)."""
+    return f"training/placements/{clip_index:04d}.txt"
 
 
 def image_path(clip_index: int, index: int) -> str:
@@ -105,6 +113,7 @@ class KittiClipStream:
         self.records: list[FileRecord] = []
         self._files = contextlib.ExitStack()
         self._lines = 0
+        self._placements: list[str] = []  # kitti_tracking: `frame track_id` of boxes with a discontinuity
         if tracking:
             path = self.root / label_path(True, clip_index)
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -117,6 +126,7 @@ class KittiClipStream:
             lines = [f"{frame.index} {track} {line}" for track, line in zip(frame.labels.track_id, label_lines(frame))]
             self._labels.write("".join(f"{line}\n" for line in lines))
             self._lines += len(lines)
+            self._placements += [f"{frame.index} {track}" for track in frame.labels.track_id[frame.labels.discontinuity]]
         else:
             self.records.append(write_text(self.root, label_path(False, self.clip_index, frame.index), label_lines(frame)))
             self.records.append(write_text(self.root, calib_path(False, self.clip_index, frame.index), calib_lines(False)))
@@ -126,6 +136,7 @@ class KittiClipStream:
         if self.tracking:
             self.records.append(record_file(self.root, label_path(True, self.clip_index), self._lines))
             self.records.append(write_text(self.root, calib_path(True, self.clip_index), calib_lines(True)))
+            self.records.append(write_text(self.root, placements_path(self.clip_index), self._placements))
         return self.records
 
     def abort(self) -> None:
@@ -172,7 +183,21 @@ class KittiReader:
         if self.files.read(calib).decode(errors="replace").splitlines() != calib_lines(self.tracking):
             raise UserError(f"{self.files.root / calib}: not simgen's virtual camera (see the dataset README)")
         relative = label_path(self.tracking, clip_index, index)
-        return parse_labels(self.files.read(relative).decode(errors="replace"), self.files.root / relative, self.tracking)
+        labels = parse_labels(self.files.read(relative).decode(errors="replace"), self.files.root / relative, self.tracking)
+        if self.tracking:
+            labels["discontinuity"] = np.isin(labels["frame"] * TRACK_ID_SPAN + labels["track_id"], self._placements(clip_index))
+        return labels
+
+    def _placements(self, clip_index: int) -> NDArray[np.int64]:
+        """`frame * TRACK_ID_SPAN + track id` of each box that training/placements/SSSS.txt lists."""
+        relative = placements_path(clip_index)
+        try:
+            pairs = np.array([line.split() for line in self.files.read(relative).decode().splitlines() if line.strip()], np.int64)
+        except ValueError:
+            raise UserError(f"{self.files.root / relative}: not lines of `frame track_id`") from None
+        if pairs.size and (pairs.ndim != 2 or pairs.shape[1] != 2 or (pairs[:, 1] < 0).any() or (pairs[:, 1] >= TRACK_ID_SPAN).any()):
+            raise UserError(f"{self.files.root / relative}: not lines of `frame track_id`")
+        return pairs.reshape(-1, 2) @ np.array([TRACK_ID_SPAN, 1])
 
     def frame(self, clip: str, index: int) -> Frame:
         clip_index = self.clip_indices[clip]
@@ -188,4 +213,5 @@ class KittiReader:
             boxes=labels["boxes"][mine],
             class_name=labels["class_name"][mine],
             track_id=labels["track_id"][mine] if self.tracking else None,
+            discontinuity=labels["discontinuity"][mine] if self.tracking else None,
         )

@@ -128,6 +128,7 @@ def boxes_table(clip: str, indices: Sequence[int], labels: Sequence[FrameLabels]
         "velocity_mps": _fixed_list(np.concatenate([lab.velocity_mps for lab in labels]), 3),
         "keypoints_m": _fixed_list(np.concatenate([lab.keypoints_m for lab in labels]), NUM_KEYPOINTS * 3),
         "num_points": np.concatenate([np.asarray(lab.num_points, np.int32) for lab in labels]),
+        "discontinuity": np.concatenate([np.asarray(lab.discontinuity, bool) for lab in labels]),
     }
     return _table("boxes", columns)
 
@@ -252,6 +253,7 @@ def _box_fields(boxes: pa.Table) -> dict[str, NDArray]:
         "velocity_mps": _fixed(boxes, "velocity_mps", (3,)),
         "keypoints_m": _fixed(boxes, "keypoints_m", (NUM_KEYPOINTS, 3)),
         "num_points": _column(boxes, "num_points"),
+        "discontinuity": _column(boxes, "discontinuity"),
     }
 
 

@@ -34,7 +34,8 @@ def clip_files(format: str, entry: ClipEntry) -> set[str]:
         return {f(entry.clip_index, i) for i in frames for f in (openpcdet.points_path, openpcdet.labels_path)}
     tracking = format == "kitti_tracking"
     paths = (kitti.velodyne_path, kitti.label_path, kitti.calib_path)
-    return {f(tracking, entry.clip_index, i) for i in frames for f in paths}
+    placements = {kitti.placements_path(entry.clip_index)} if tracking else set()
+    return {f(tracking, entry.clip_index, i) for i in frames for f in paths} | placements
 
 
 def check_files_match_clips(root: Path, manifest: Manifest) -> None:

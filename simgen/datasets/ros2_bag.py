@@ -12,7 +12,8 @@ Topics (CDR-encoded, ROS 2 Humble message definitions):
   that keeps no sensor per point (KITTI, OpenPCDet) has one topic, `/simgen/points`.
 - `/simgen/boxes`, `visualization_msgs/msg/MarkerArray` per frame: DELETEALL, then per humanoid a
   CUBE (namespace `boxes`, marker id = track id, `text` the class, which RViz does not draw on a
-  cube) and a TEXT_VIEW_FACING (namespace `track_ids`) with the track id.
+  cube) and a TEXT_VIEW_FACING (namespace `track_ids`) with the track id; a humanoid the engine placed
+  for a restart (`discontinuity`) has one more TEXT_VIEW_FACING, `placed`, in namespace `discontinuity`.
 - `/tf_static`, `tf2_msgs/msg/TFMessage` once: `pitch` -> each sensor's name, its pose.
 
 Stamps are game time (seconds since kick-off of the captured clip, not the Unix epoch): a cloud's
@@ -73,6 +74,7 @@ POINT_DTYPE = np.dtype(
 BOX_COLOURS = {OFFICIAL_CLASS: (1.0, 0.9, 0.0, 0.6)}  # RGBA; players white
 PLAYER_COLOUR = (1.0, 1.0, 1.0, 0.6)
 TEXT_HEIGHT_M = 0.5
+DISCONTINUITY_NAMESPACE = "discontinuity"  # markers of boxes whose humanoid the engine placed
 SCHEMAS = ("sensor_msgs/msg/PointCloud2", "visualization_msgs/msg/MarkerArray", "tf2_msgs/msg/TFMessage")
 
 
@@ -137,12 +139,13 @@ def cloud_message(points: NDArray, stamp_ns: int) -> dict:
 
 
 def markers_message(frame: Frame, stamp_ns: int) -> dict:
-    """DELETEALL, then a CUBE and a track-id TEXT per box."""
+    """DELETEALL, then a CUBE and a track-id TEXT per box, and a `placed` TEXT per box with a discontinuity."""
     header = _header(stamp_ns)
     markers = [{"header": header, "ns": "boxes", "id": 0, "type": 0, "action": 3, "pose": {"orientation": {"w": 1.0}}}]
     names = frame.class_name
     ids = frame.track_id if frame.track_id is not None else np.arange(len(frame.boxes))
-    for box, name, track in zip(np.asarray(frame.boxes, np.float64), names, ids):
+    placed = frame.discontinuity if frame.discontinuity is not None else np.zeros(len(frame.boxes), bool)
+    for box, name, track, jumped in zip(np.asarray(frame.boxes, np.float64), names, ids, placed):
         x, y, z, length, width, height, yaw = box.tolist()
         r, g, b, a = BOX_COLOURS.get(str(name), PLAYER_COLOUR)
         common = {"header": header, "id": int(track), "action": 0, "frame_locked": False}
@@ -156,6 +159,12 @@ def markers_message(frame: Frame, stamp_ns: int) -> dict:
             "pose": {"position": {"x": x, "y": y, "z": z + height / 2 + TEXT_HEIGHT_M}, "orientation": {"w": 1.0}},
             "scale": {"z": TEXT_HEIGHT_M}, "color": {"r": r, "g": g, "b": b, "a": 1.0},
         })
+        if jumped:
+            markers.append({
+                **common, "ns": DISCONTINUITY_NAMESPACE, "type": 9, "text": "placed",
+                "pose": {"position": {"x": x, "y": y, "z": z + height / 2 + 2.5 * TEXT_HEIGHT_M}, "orientation": {"w": 1.0}},
+                "scale": {"z": TEXT_HEIGHT_M}, "color": {"r": 1.0, "g": 0.3, "b": 0.3, "a": 1.0},
+            })
     return {"markers": markers}
 
 
@@ -216,7 +225,7 @@ def labelled_to_frame(frame: LabelledFrame) -> Frame:
         clip=frame.clip, index=frame.index, points_m=scan.points_m, intensity=scan.intensity, boxes=labels.boxes,
         class_name=class_names(labels.team), track_id=labels.track_id, time_s=frame.time_s,
         label_time_s=frame.label_time_s, time_offset_s=scan.time_offset_s, sensor=scan.sensor, head=scan.head,
-        instance_id=scan.instance_id,
+        instance_id=scan.instance_id, discontinuity=labels.discontinuity,
     )
 
 
@@ -286,15 +295,17 @@ def cloud_array(message) -> NDArray:
     return np.frombuffer(bytes(message.data), POINT_DTYPE, count=message.width)
 
 
-def boxes_of(message) -> tuple[NDArray[np.float32], NDArray[np.str_], NDArray[np.int32]]:
-    """(H, 7) boxes, class names and track ids of a MarkerArray's CUBE markers."""
+def boxes_of(message) -> tuple[NDArray[np.float32], NDArray[np.str_], NDArray[np.int32], NDArray[np.bool_]]:
+    """(H, 7) boxes, class names, track ids and discontinuity flags of a MarkerArray's CUBE markers."""
     cubes = [m for m in message.markers if m.ns == "boxes" and m.type == 1 and m.action == 0]
     boxes = np.array(
         [[m.pose.position.x, m.pose.position.y, m.pose.position.z, m.scale.x, m.scale.y, m.scale.z,
           2 * np.arctan2(m.pose.orientation.z, m.pose.orientation.w)] for m in cubes], np.float64,
     ).reshape(-1, 7)
     boxes[:, 6] = np.pi - np.mod(np.pi - boxes[:, 6], 2 * np.pi)  # (-pi, pi]
-    return boxes.astype(np.float32), np.array([m.text for m in cubes], np.str_), np.array([m.id for m in cubes], np.int32)
+    ids = np.array([m.id for m in cubes], np.int32)
+    placed = [m.id for m in message.markers if m.ns == DISCONTINUITY_NAMESPACE and m.action == 0]
+    return boxes.astype(np.float32), np.array([m.text for m in cubes], np.str_), ids, np.isin(ids, placed)
 
 
 class BagReader:
@@ -324,11 +335,11 @@ class BagReader:
         stamp_ns = header.sec * 1_000_000_000 + header.nanosec
         markers = topics[BOXES_TOPIC][index]
         label = markers.markers[0].header.stamp
-        boxes, names, ids = boxes_of(markers)
+        boxes, names, ids, placed = boxes_of(markers)
         return Frame(
             clip=clip, index=index,
             points_m=np.ascontiguousarray(np.stack([points["x"], points["y"], points["z"]], axis=1)),
-            intensity=points["intensity"].astype(np.uint8), boxes=boxes, class_name=names, track_id=ids,
+            intensity=points["intensity"].astype(np.uint8), boxes=boxes, class_name=names, track_id=ids, discontinuity=placed,
             time_s=stamp_ns / 1e9, label_time_s=(label.sec * 1_000_000_000 + label.nanosec) / 1e9,
             time_offset_s=(points["offset_time"] / 1e9).astype(np.float32),
             sensor=np.concatenate([np.full(len(a), s if s is not None else 0, np.uint8) for s, a in arrays]) if arrays else None,
@@ -354,6 +365,8 @@ def card_lines() -> list[str]:
         *(f"| {name} | {offset} | {kind} | {text} |" for (name, offset, kind), text in zip(fields, meaning)),
         "",
         f"- `{BOXES_TOPIC}`: `visualization_msgs/msg/MarkerArray` per frame at the label time: DELETEALL, then per",
-        "  humanoid a CUBE (namespace `boxes`, id = track id, `text` = class) and a TEXT_VIEW_FACING track id.",
+        "  humanoid a CUBE (namespace `boxes`, id = track id, `text` = class) and a TEXT_VIEW_FACING track id; a",
+        "  humanoid the engine placed for a restart (`discontinuity`) also a TEXT_VIEW_FACING `placed` (namespace",
+        f"  `{DISCONTINUITY_NAMESPACE}`, id = track id).",
         f"- `{TF_STATIC_TOPIC}`: `tf2_msgs/msg/TFMessage`, `{WORLD_FRAME}` -> each sensor's name (its pose).",
     ]

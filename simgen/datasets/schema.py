@@ -18,8 +18,8 @@ import pyarrow as pa
 
 from simgen.vocab import BALL_INSTANCE_ID, KEYPOINT_NAMES, NUM_KEYPOINTS, SEMANTIC_NAMES
 
-SCHEMA_VERSION = 3  # 2: `clip` and `frame` columns in every per-clip table, `sensors` once per dataset, points.sweep;
-#                    3: `points` row groups of 10 frames instead of one each
+SCHEMA_VERSION = 4  # 2: `clip` and `frame` columns in every per-clip table, `sensors` once per dataset, points.sweep;
+#                    3: `points` row groups of 10 frames instead of one each; 4: boxes.discontinuity
 METADATA_KEY = b"simgen.dataset"
 PITCH_FRAME = "pitch: origin at the centre spot, x towards the right team's goal, y left, z up; metres"
 BOX_CONVENTION = (
@@ -102,6 +102,12 @@ BOXES = pa.schema(
             "m",
         ),
         _field("num_points", pa.int32(), "points of the frame hit on this humanoid"),
+        _field(
+            "discontinuity",
+            pa.bool_(),
+            "the engine placed this humanoid for a restart between the previous frame's label time and the end of "
+            "this frame's sweep: the box may jump from the previous frame's (same track id), its points may lie at both places",
+        ),
     ]
 )
 

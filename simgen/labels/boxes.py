@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 from simgen.body.heading import as_keypoints, heading
 from simgen.body.mesh import body_extent
 from simgen.motion.clip import MotionClip
-from simgen.motion.interpolate import interpolate_clip
+from simgen.motion.interpolate import interpolate_clip, segment_index
 from simgen.vocab import KEYPOINT_INDEX
 
 FACE_NAMES = ("front", "back", "left", "right", "top", "bottom")
@@ -100,13 +100,18 @@ class FrameLabels:
     velocity_mps: NDArray[np.float32]  # (H, 3) of `middle`
     keypoints_m: NDArray[np.float32]  # (H, 12, 3)
     num_points: NDArray[np.int32]  # (H,) points of the frame hit on this humanoid
+    #: (H,) the engine placed this humanoid between the previous frame's label time and the end of this
+    #: frame's sweep: its box may jump from the previous frame's, and its points may lie at both places
+    discontinuity: NDArray[np.bool_]
 
 
 def frame_labels(
-    boxes: NDArray, keypoints: NDArray, velocity_mps: NDArray, track_id: NDArray, team: NDArray, role: NDArray, point_instance: NDArray
+    boxes: NDArray, keypoints: NDArray, velocity_mps: NDArray, track_id: NDArray, team: NDArray, role: NDArray,
+    point_instance: NDArray, discontinuity: NDArray,
 ) -> FrameLabels:
-    """Labels of humanoids from their boxes (H, 7) (`boxes_from_keypoints`), keypoints (H, 12, 3) and
-    velocities at the label time, with the number of the frame's points (instance ids) each got."""
+    """Labels of humanoids from their boxes (H, 7) (`boxes_from_keypoints`), keypoints (H, 12, 3),
+    velocities and placement flags (H,) at the label time, with the number of the frame's points
+    (instance ids) each got."""
     ids, counts = np.unique(point_instance[point_instance >= 0], return_counts=True)
     num_points = np.zeros(len(track_id), np.int32)
     found = np.isin(track_id, ids)
@@ -119,15 +124,33 @@ def frame_labels(
         velocity_mps=np.asarray(velocity_mps, np.float32),
         keypoints_m=np.asarray(keypoints, np.float32),
         num_points=num_points,
+        discontinuity=np.asarray(discontinuity, bool),
     )
 
 
 def label_poses(clip: MotionClip, label_times_s: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-    """Keypoints (F, H, 12, 3), velocities of `middle` (F, H, 3) in m/s and boxes (F, H, 7) at F label times (s)."""
+    """Keypoints (F, H, 12, 3), velocities of `middle` (F, H, 3) in m/s and boxes (F, H, 7) at F label times (s).
+
+    Velocities are central differences over +-VELOCITY_DT_S within the label time's segment of the
+    humanoid's motion: one-sided next to a placement, zero between two placements closer than that.
+    """
     times = np.clip(label_times_s[:, None] + np.array([-VELOCITY_DT_S, 0.0, VELOCITY_DT_S]), clip.time_s[0], clip.time_s[-1])
     keypoints, _ = interpolate_clip(clip, times.reshape(-1))
     keypoints = keypoints.reshape(len(times), 3, clip.num_humanoids, 12, 3)
-    middle = KEYPOINT_INDEX["middle"]
-    velocity = (keypoints[:, 2, :, middle] - keypoints[:, 0, :, middle]) / (times[:, 2] - times[:, 0])[:, None, None]
+    segment = segment_index(clip, times.reshape(-1)).reshape(len(times), 3, clip.num_humanoids)
+    first = np.where(segment[:, 0] == segment[:, 1], 0, 1)[:, None, :, None]  # (F, 1, H, 1): -dt or the label time
+    last = np.where(segment[:, 2] == segment[:, 1], 2, 1)[:, None, :, None]  # +dt or the label time
+    middle = keypoints[:, :, :, KEYPOINT_INDEX["middle"]]  # (F, 3, H, 3)
+    span = np.take_along_axis(times[:, :, None, None], last, 1) - np.take_along_axis(times[:, :, None, None], first, 1)
+    moved = np.take_along_axis(middle, last, 1) - np.take_along_axis(middle, first, 1)
+    velocity = np.divide(moved, span, out=np.zeros_like(moved), where=span > 0)[:, 0]
     boxes = boxes_from_keypoints(keypoints[:, 1].reshape(-1, 12, 3), velocity.reshape(-1, 3)).array
     return keypoints[:, 1], velocity, boxes.reshape(len(times), clip.num_humanoids, 7)
+
+
+def placed_between(clip: MotionClip, since_s: NDArray, until_s: NDArray) -> NDArray[np.bool_]:
+    """(F, H): whether the engine placed each humanoid in (since, until] (s), for F such spans; spans
+    reaching outside the clip are cut to it. With `since` the previous frame's label time and `until`
+    the end of the frame's sweep, this is `FrameLabels.discontinuity`."""
+    first, last = clip.time_s[0], clip.time_s[-1]
+    return segment_index(clip, np.clip(since_s, first, last)) != segment_index(clip, np.clip(until_s, first, last))

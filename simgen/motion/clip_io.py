@@ -1,7 +1,9 @@
 """Motion clips on disk: one Parquet file, one row per (frame, humanoid), zstd.
 
 Columns: frame, time_s, track_id, team, role, jersey, keypoints_m (12 x (x, y, z) flattened, in
-the order of `simgen.vocab.KEYPOINT_NAMES`), engine_position_m, ball_m. Units and the
+the order of `simgen.vocab.KEYPOINT_NAMES`), engine_position_m, ball_m, placed_s and ball_placed_s
+(when the engine placed the humanoid or the ball since the frame before; NaN: not placed),
+game_mode. Units and the
 pitch frame are in the field and schema metadata, so pandas, polars and duckdb read it as is.
 `write_clip_arrays` / `read_clip_arrays` keep a clip as uncompressed `.npy` arrays instead, for
 `simgen generate`'s run state: its shards map them and touch only the frames they render.
@@ -19,10 +21,10 @@ import pyarrow.parquet as pq
 
 from simgen.atomic import atomic_path
 from simgen.errors import UserError
-from simgen.motion.clip import MotionClip
+from simgen.motion.clip import GAME_MODES, MotionClip
 from simgen.vocab import KEYPOINT_NAMES, NUM_KEYPOINTS
 
-MOTION_SCHEMA_VERSION = 1
+MOTION_SCHEMA_VERSION = 2  # 2: placements and game mode
 PITCH_FRAME = "pitch: origin at the centre spot, x towards the right team's goal, y left, z up; metres"
 
 
@@ -49,10 +51,14 @@ SCHEMA = pa.schema(
             "the engine's own player position (x, y, z), metres; NaN between engine steps and for officials",
         ),
         _field("ball_m", pa.list_(pa.float32(), 3), "ball centre (x, y, z), metres"),
+        _field("placed_s", pa.float64(), "game time (s) the engine placed the humanoid (a restart) since the frame before; NaN: not placed"),
+        _field("ball_placed_s", pa.float64(), "game time (s) the engine placed the ball since the frame before; NaN: not placed"),
+        _field("game_mode", pa.int8(), "the engine's game mode: " + ", ".join(f"{i} {m}" for i, m in enumerate(GAME_MODES))),
     ]
 )
 
 
+PER_ROW_COLUMNS = {"time_s": np.float64, "placed_s": np.float64, "ball_placed_s": np.float64, "game_mode": np.int8}
 PER_ROW_LISTS = {"keypoints_m": NUM_KEYPOINTS * 3, "engine_position_m": 3, "ball_m": 3}  # fixed-size list columns, widths
 
 
@@ -74,6 +80,9 @@ def clip_to_table(clip: MotionClip, first_frame: int = 0) -> pa.Table:
         "keypoints_m": _fixed_list(clip.keypoints_m, NUM_KEYPOINTS * 3),
         "engine_position_m": _fixed_list(clip.engine_position_m, 3),
         "ball_m": _fixed_list(np.repeat(clip.ball_m, humanoids, axis=0), 3),
+        "placed_s": np.asarray(clip.placed_s, np.float64).reshape(-1),
+        "ball_placed_s": np.repeat(clip.ball_placed_s, humanoids),
+        "game_mode": np.repeat(clip.game_mode, humanoids),
     }
     metadata = {
         "schema_version": MOTION_SCHEMA_VERSION,
@@ -106,7 +115,8 @@ def _frames(clip: MotionClip, start: int, stop: int) -> MotionClip:
     """Frames start .. stop - 1 of a clip (views)."""
     return dataclasses.replace(
         clip, time_s=clip.time_s[start:stop], keypoints_m=clip.keypoints_m[start:stop], ball_m=clip.ball_m[start:stop],
-        engine_position_m=clip.engine_position_m[start:stop],
+        engine_position_m=clip.engine_position_m[start:stop], placed_s=clip.placed_s[start:stop],
+        ball_placed_s=clip.ball_placed_s[start:stop], game_mode=clip.game_mode[start:stop],
     )
 
 
@@ -129,7 +139,7 @@ def read_clip(path: str | Path) -> MotionClip:
         if rows == 0:
             raise UserError(f"{path}: a motion clip without frames")
         frame = np.empty(rows, np.int32)
-        time_s = np.empty(rows, np.float64)
+        per_column = {name: np.empty(rows, dtype) for name, dtype in PER_ROW_COLUMNS.items()}
         per_row = {name: np.empty((rows, width), np.float32) for name, width in PER_ROW_LISTS.items()}
         first = None  # the first row group: the roster
         done = 0
@@ -138,7 +148,8 @@ def read_clip(path: str | Path) -> MotionClip:
             first = group if first is None else first
             stop = done + group.num_rows
             frame[done:stop] = group["frame"].to_numpy()
-            time_s[done:stop] = group["time_s"].to_numpy()
+            for name in PER_ROW_COLUMNS:
+                per_column[name][done:stop] = group[name].to_numpy()
             for name, width in PER_ROW_LISTS.items():
                 per_row[name][done:stop] = group[name].combine_chunks().flatten().to_numpy().reshape(-1, width)
             done = stop
@@ -157,7 +168,7 @@ def read_clip(path: str | Path) -> MotionClip:
     for key in ("schema_version", "pitch_frame", "keypoint_names"):
         metadata.pop(key, None)
     return MotionClip(
-        time_s=time_s[::humanoids].copy(),
+        time_s=per_column["time_s"][::humanoids].copy(),
         keypoints_m=per_row["keypoints_m"].reshape(frames, humanoids, NUM_KEYPOINTS, 3),
         ball_m=per_row["ball_m"][::humanoids].copy(),
         engine_position_m=per_row["engine_position_m"].reshape(frames, humanoids, 3),
@@ -167,10 +178,13 @@ def read_clip(path: str | Path) -> MotionClip:
         jersey=roster["jersey"].to_numpy(),
         capture_hz=capture_hz,
         metadata=metadata,
+        placed_s=per_column["placed_s"].reshape(frames, humanoids),
+        ball_placed_s=per_column["ball_placed_s"][::humanoids].copy(),
+        game_mode=per_column["game_mode"][::humanoids].copy(),
     )
 
 
-FRAME_ARRAYS = ("time_s", "keypoints_m", "ball_m", "engine_position_m")  # MotionClip fields with a frame axis
+FRAME_ARRAYS = ("time_s", "keypoints_m", "ball_m", "engine_position_m", "placed_s", "ball_placed_s", "game_mode")  # MotionClip fields with a frame axis
 ROSTER = ("track_id", "team", "role", "jersey")  # MotionClip fields with a humanoid axis only
 
 

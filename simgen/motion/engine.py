@@ -4,6 +4,12 @@ All 22 players play on the engine's built-in AI (the one agent sends `builtin_ai
 patch (engine/gfootball-keypoints.patch) records, after every 10 ms physics step, the world
 positions of the 12 body parts of every humanoid and the ball; we keep every
 `100 / capture_hz`-th sample. Everything here is in the pitch frame of `simgen.vocab`.
+
+Placements are found on every physics sample, kept or not: a humanoid whose keypoints' centroid
+moves more than `PLACEMENT_STEP_M` in one 10 ms step (30 m/s; the engine's sprints reach 0.106 m,
+measured over 150 s of paper_x1's clip 2) was placed by the engine, and so was a ball that moves more
+than `BALL_PLACEMENT_STEP_M` (100 m/s; the hardest kicks are about 35 m/s). Before a restart the
+engine places 20-22 players in the same physics step, about 2 s before `game_mode` changes.
 """
 
 from __future__ import annotations
@@ -24,6 +30,8 @@ from simgen.vocab import NUM_KEYPOINTS, OFFICIAL_ROLES, ROLE_NAMES
 ENGINE_STEP_S = 0.1
 PHYSICS_STEPS_PER_ENGINE_STEP = 10
 PHYSICS_STEP_S = ENGINE_STEP_S / PHYSICS_STEPS_PER_ENGINE_STEP
+PLACEMENT_STEP_M = 0.3  # a humanoid's centroid moving farther in one physics step was placed
+BALL_PLACEMENT_STEP_M = 1.0  # the ball moving farther in one physics step was placed
 #: Scale from the engine's observation coordinates to metres (see the engine's defines.hpp).
 OBSERVATION_TO_METRES = np.array([54.4, -83.6, 1.0])
 
@@ -126,19 +134,48 @@ def _engine_positions(info, num_humanoids: int) -> np.ndarray:
     return out
 
 
+class _Placements:
+    """Finds placements sample by sample; what it found since the last kept frame waits for that frame."""
+
+    def __init__(self, num_humanoids: int):
+        self.centroid = self.ball = None  # at the previous physics sample
+        self.humanoids = np.full(num_humanoids, np.nan)  # first placement time since the last kept frame
+        self.ball_time = np.nan
+
+    def see(self, time_s: float, keypoints: np.ndarray, ball: np.ndarray) -> None:
+        """One physics sample: keypoints (H, 12, 3) and ball (3,) at `time_s`."""
+        centroid = keypoints.mean(axis=1)
+        if self.centroid is not None:
+            jumped = np.linalg.norm(centroid - self.centroid, axis=1) > PLACEMENT_STEP_M
+            self.humanoids[jumped & np.isnan(self.humanoids)] = time_s
+            if np.isnan(self.ball_time) and np.linalg.norm(ball - self.ball) > BALL_PLACEMENT_STEP_M:
+                self.ball_time = time_s
+        self.centroid, self.ball = centroid, ball
+
+    def take(self) -> tuple[np.ndarray, float]:
+        """Placements since the last kept frame (humanoids (H,), ball), cleared for the next."""
+        found = self.humanoids.copy(), self.ball_time
+        self.humanoids[:] = np.nan
+        self.ball_time = np.nan
+        return found
+
+
 def capture_motion(
     motion: MotionConfig, seed: int, progress: Callable[[int], None] | None = None
 ) -> MotionClip:
     """Play the level and capture `motion.frames` frames; `progress(n)` is told of each new frame.
 
     A frame is taken after every physics step whose count since kick-off is a multiple of
-    `100 / capture_hz`; `time_s` is that count times 10 ms.
+    `100 / capture_hz`; `time_s` is that count times 10 ms. Placements are looked for at every
+    physics step from the first frame on (module docstring).
     """
     stride = round(100 / motion.capture_hz)
     engine = FootballEngine(motion, seed)
     times = np.empty(motion.frames, np.float64)
     ball = np.empty((motion.frames, 3), np.float32)
-    keypoints = positions = None  # (F, H, 12, 3) and (F, H, 3), allocated once H is known
+    game_mode = np.empty(motion.frames, np.int8)
+    ball_placed = np.empty(motion.frames, np.float64)
+    keypoints = positions = placed = placements = None  # (F, H, 12, 3), (F, H, 3), (F, H): allocated once H is known
     count = 0
     try:
         for _ in range(round(motion.skip_s / ENGINE_STEP_S)):
@@ -152,13 +189,19 @@ def capture_motion(
             if keypoints is None:  # filled in place: no per-frame arrays to stack at the end
                 keypoints = np.empty((motion.frames, num_humanoids, NUM_KEYPOINTS, 3), np.float32)
                 positions = np.empty((motion.frames, num_humanoids, 3), np.float32)
+                placed = np.empty((motion.frames, num_humanoids), np.float64)
+                placements = _Placements(num_humanoids)
             for sub in range(PHYSICS_STEPS_PER_ENGINE_STEP):
                 physics_step = step_start + sub + 1
+                sample = samples[sub, :-1].reshape(num_humanoids, NUM_KEYPOINTS, 3)
+                placements.see(round(physics_step * PHYSICS_STEP_S, 6), sample, samples[sub, -1])
                 if physics_step % stride or count == motion.frames:
                     continue
                 times[count] = physics_step * PHYSICS_STEP_S
-                keypoints[count] = samples[sub, :-1].reshape(num_humanoids, NUM_KEYPOINTS, 3)
+                keypoints[count] = sample
                 ball[count] = samples[sub, -1]
+                placed[count], ball_placed[count] = placements.take()
+                game_mode[count] = int(info.game_mode)
                 at_step_end = sub == PHYSICS_STEPS_PER_ENGINE_STEP - 1
                 positions[count] = _engine_positions(info, num_humanoids) if at_step_end else np.nan
                 count += 1
@@ -167,6 +210,7 @@ def capture_motion(
         track_id, team, role = _roster(info, num_humanoids)
     finally:
         engine.close()
+    placed[0], ball_placed[0] = np.nan, np.nan  # the first frame has no frame before it to jump from
     return MotionClip(
         time_s=np.round(times, 6),
         keypoints_m=keypoints,
@@ -178,6 +222,9 @@ def capture_motion(
         jersey=np.full(len(track_id), -1, dtype=np.int16),
         capture_hz=motion.capture_hz,
         metadata={"level": motion.level, "seed": seed, **engine_versions()},
+        placed_s=placed,
+        ball_placed_s=ball_placed,
+        game_mode=game_mode,
     )
 
 

@@ -13,7 +13,7 @@ from typing import Iterator
 import numpy as np
 
 from simgen.errors import UserError
-from simgen.labels.boxes import frame_labels, label_poses
+from simgen.labels.boxes import frame_labels, label_poses, placed_between
 from simgen.labels.labelled_frame import LabelledFrame
 from simgen.motion.clip import MotionClip
 from simgen.render.frame import render_frame
@@ -66,11 +66,14 @@ def render_frames(scenario: Scenario, clip: MotionClip, clip_index: int, first: 
     for index in range(first, stop):
         j = index % LABEL_CHUNK_FRAMES
         if j == 0 or index == first:  # labels of the chunk's frames at once (none past `stop`: no motion there)
-            label_times = start + (index - j + np.arange(min(LABEL_CHUNK_FRAMES, stop - index + j)) + 0.5) / rate
+            chunk = index - j + np.arange(min(LABEL_CHUNK_FRAMES, stop - index + j))
+            label_times = start + (chunk + 0.5) / rate
             keypoints, velocity, boxes = label_poses(clip, label_times)
+            # the previous frame's label time (the same floats as its own) to the end of this frame's sweep
+            discontinuity = placed_between(clip, start + (chunk - 0.5) / rate, start + (chunk + 1) / rate)
         frame_start = start + index / rate
         rays = frame_rays(scenario, specs, index, start)
         rng = np.random.default_rng(np.random.SeedSequence([scenario.seed, clip_index, index]))
         scan = render_frame(world, rays, frame_start, scenario.noise, rng)
-        labels = frame_labels(boxes[j], keypoints[j], velocity[j], clip.track_id, clip.team, clip.role, scan.instance_id)
+        labels = frame_labels(boxes[j], keypoints[j], velocity[j], clip.track_id, clip.team, clip.role, scan.instance_id, discontinuity[j])
         yield LabelledFrame(clip_name(clip_index), index, frame_start, float(label_times[j]), scan, labels)

@@ -110,16 +110,18 @@ def clip_problems(dataset: Dataset, entry: ClipEntry, tol: LabelTolerances) -> t
     locate = locator(dataset, entry, first_row)
     frame_rate_hz = float(dataset.manifest.sensors[0]["frame_rate_hz"])
     problems, tracks, sizes, rows = [], [], [], 0
+    before, frame = None, dataset.frame(entry.clip, 0) if entry.frames else None
     for index in range(entry.frames):
-        frame = dataset.frame(entry.clip, index)
+        after = dataset.frame(entry.clip, index + 1) if index + 1 < entry.frames else None
         first_row[index] = rows
         rows += len(frame.boxes)
         sizes.append((len(frame.points_m), len(frame.boxes)))
         problems += box_problems(frame, locate, tol)
         if frame.num_points is not None:
-            problems += count_problems(frame, locate, 0.5 / frame_rate_hz, tol)
+            problems += count_problems(frame, locate, 0.5 / frame_rate_hz, tol, before, after)
         if frame.track_id is not None:
-            tracks.append((index, frame.track_id, frame.boxes))
+            tracks.append((index, frame.track_id, frame.boxes, frame.discontinuity))
+        before, frame = frame, after
     if tracks:
         problems += track_problems(tracks, locate, frame_rate_hz, tol)
     if dataset.format == "parquet":

@@ -2,7 +2,13 @@
 match the points, and track ids that neither skip frames nor jump.
 
 Boxes describe the middle of a frame's sweep while each point has its own shot time, so a
-humanoid's points are looked for in its box grown by a margin plus its speed x half a frame.
+humanoid's points are looked for in its box grown by a margin plus its speed x half a frame, or,
+where the format keeps point times, in the box of the neighbouring frame on the point's side of the
+label time, grown alike: a limb swinging faster than the body can leave the first and be in the
+second (a stride lengthens a box by half a metre within a frame). A box
+with a `discontinuity` (the engine placed its humanoid for a restart) is a new segment of its track:
+its points may lie at both places and its centre may jump, so neither is held against it; a jump
+without the flag is still a problem.
 `Locate(frame index, box index)` says where a box is stored: (file, row).
 """
 
@@ -56,10 +62,25 @@ def in_box(points: NDArray, box: NDArray, grow_m: float) -> NDArray[np.bool_]:
     )
 
 
-def count_problems(frame: Frame, locate: Locate, half_frame_s: float, tol: LabelTolerances) -> list[Problem]:
-    """Stored `num_points` against the points carrying the box's track id, and those inside the box."""
+def _box_of(frame: Frame | None, track: int) -> tuple[NDArray, float] | None:
+    """The box (7,) and speed (m/s) of `track` in a neighbouring frame, unless absent or placed there."""
+    if frame is None:
+        return None
+    found = np.flatnonzero(frame.track_id == track)
+    if not len(found) or (frame.discontinuity is not None and frame.discontinuity[found[0]]):
+        return None
+    return np.asarray(frame.boxes[found[0]], np.float64), float(np.hypot(*frame.velocity_mps[found[0], :2]))
+
+
+def count_problems(
+    frame: Frame, locate: Locate, half_frame_s: float, tol: LabelTolerances, before: Frame | None = None, after: Frame | None = None
+) -> list[Problem]:
+    """Stored `num_points` against the points carrying the box's track id, and those inside the box (or
+    in the box of frame `before` or `after` on the point's side of the label time)."""
     order = np.argsort(frame.instance_id, kind="stable")
     ids = frame.instance_id[order]
+    placed = frame.discontinuity if frame.discontinuity is not None else np.zeros(len(frame.boxes), bool)
+    timed = frame.time_offset_s is not None and frame.time_s is not None and frame.label_time_s is not None
     problems = []
     for i, (box, track, stored) in enumerate(zip(np.asarray(frame.boxes, np.float64), frame.track_id, frame.num_points)):
         file, row = locate(frame.index, i)
@@ -67,23 +88,33 @@ def count_problems(frame: Frame, locate: Locate, half_frame_s: float, tol: Label
         if hi - lo != stored:
             problems.append(Problem(file, row, f"num_points is {stored}, the frame has {plural(hi - lo, 'point')} of track id {track}"))
             continue
+        if placed[i]:
+            continue
         grow = tol.box_margin_m + float(np.hypot(*frame.velocity_mps[i, :2])) * half_frame_s
-        inside = int(in_box(frame.points_m[order[lo:hi]], box, grow).sum())
-        if inside != stored:
-            problems.append(Problem(file, row, f"{plural(inside, 'point')} inside the box (grown by {grow:.2f} m), num_points is {stored}"))
+        points = frame.points_m[order[lo:hi]]
+        inside = in_box(points, box, grow)
+        if timed and not inside.all():
+            later = frame.time_s + frame.time_offset_s[order[lo:hi]].astype(np.float64) >= frame.label_time_s
+            for side, neighbour in ((later, after), (~later, before)):
+                other = _box_of(neighbour, int(track))
+                if other is not None:
+                    inside |= side & in_box(points, other[0], tol.box_margin_m + other[1] * half_frame_s)
+        if int(inside.sum()) != stored:
+            problems.append(Problem(file, row, f"{plural(int(inside.sum()), 'point')} inside the box (grown by {grow:.2f} m), num_points is {stored}"))
     return problems
 
 
 def track_problems(
-    tracks: Sequence[tuple[int, NDArray, NDArray]], locate: Locate, frame_rate_hz: float, tol: LabelTolerances
+    tracks: Sequence[tuple[int, NDArray, NDArray, NDArray | None]], locate: Locate, frame_rate_hz: float, tol: LabelTolerances
 ) -> list[Problem]:
-    """Track ids twice in a frame, missing from frames between two sightings, or moving too fast.
+    """Track ids twice in a frame, missing from frames between two sightings, or moving too fast within
+    a segment.
 
-    `tracks`: per frame in order, (frame index, track ids (H,), boxes (H, 7)).
+    `tracks`: per frame in order, (frame index, track ids (H,), boxes (H, 7), discontinuity (H,) or None).
     """
     problems = []
     last: dict[int, tuple[int, NDArray]] = {}  # track id -> (frame index, box centre) where last seen
-    for index, track_id, boxes in tracks:
+    for index, track_id, boxes, placed in tracks:
         ids, counts = np.unique(track_id, return_counts=True)
         for track, count in zip(ids[counts > 1], counts[counts > 1]):
             file, row = locate(index, int(np.flatnonzero(track_id == track)[1]))
@@ -94,7 +125,7 @@ def track_problems(
             seen = last.get(int(track))
             if seen is not None and seen[0] < index - 1:
                 problems.append(Problem(file, row, f"track id {track} is missing from frames {seen[0] + 1}-{index - 1}"))
-            elif seen is not None and seen[0] == index - 1:
+            elif seen is not None and seen[0] == index - 1 and not (placed is not None and placed[i]):
                 speed = float(np.linalg.norm(centre - seen[1])) * frame_rate_hz
                 if speed > tol.max_speed_mps:
                     problems.append(Problem(file, row, f"track id {track} moved at {speed:.1f} m/s since frame {seen[0]} (limit {tol.max_speed_mps:g})"))
