@@ -34,6 +34,26 @@ def test_tracklet_boxes_are_matched_by_track_id(dataset):
     np.testing.assert_array_equal(single.points[0][:, :3], dataset.frame(clip, 4).points_m)
 
 
+def test_boxes_before_a_placement_are_masked(tmp_path):
+    """Track 1 placed by the engine at frame 3: the samples at t = 3 and 4 mask its boxes before frame 3
+    (another segment of its motion), and the sample at t = 3 says it was placed."""
+    from dataclasses import replace
+
+    from dataset_factory import make_clip, write_dataset
+
+    frames = make_clip("clip_0000", 6, humanoids=4)
+    frames = [replace(f, labels=replace(f.labels, discontinuity=np.array([f.index == 3, False, False, False]))) for f in frames]
+    write_dataset(tmp_path, "parquet", [frames])
+    data = simgen.datasets.open(tmp_path)
+    config = tiny_config("late")
+    for t, placed_mask in ((2, [True, True, True]), (3, [False, False, True]), (4, [False, True, True]), (5, [True, True, True])):
+        sample = load_sample(data, "clip_0000", t, config)
+        one = list(sample.track_id).index(1)
+        assert sample.box_mask[one].tolist() == placed_mask, t
+        assert sample.placed.tolist() == [t == 3 and track == 1 for track in sample.track_id], t
+        assert sample.box_mask[np.flatnonzero(sample.track_id != 1)].all()
+
+
 def _sample() -> Sample:
     rng = np.random.default_rng(1)
     boxes = np.zeros((2, 3, 7), np.float32)
@@ -48,7 +68,7 @@ def _sample() -> Sample:
                        np.sin(yaw) * local[..., 0] + np.cos(yaw) * local[..., 1]], -1)
         xyz = np.concatenate([xy, local[..., 2:]], -1) + boxes[:, k, None, :3]
         points.append(np.column_stack([xyz.reshape(-1, 3), np.full(40, 0.5)]).astype(np.float32))
-    return Sample("c", 2, tuple(points), boxes, np.ones((2, 3), bool), np.arange(2))
+    return Sample("c", 2, tuple(points), boxes, np.ones((2, 3), bool), np.arange(2), np.zeros(2, bool))
 
 
 def _local(points: np.ndarray, box: np.ndarray) -> np.ndarray:

@@ -26,7 +26,7 @@ def _batch(config, model, samples=2):
             for _ in range(config.model.fusion.input_frames)
         )
         boxes = np.tile(np.array([1.0, -5.0, 0.9, 0.8, 0.6, 1.8, 0.3], np.float32), (1, 3, 1))
-        sample = Sample("c", 2, points, boxes, np.ones((1, 3), bool), np.arange(1))
+        sample = Sample("c", 2, points, boxes, np.ones((1, 3), bool), np.arange(1), np.zeros(1, bool))
         items.append(encode_sample(sample, config, model.head.assigner))
     rows, cols = config.data.grid_size
     return collate(items, config.model.fusion.canvases, rows * cols, model.head.assigner.collate)

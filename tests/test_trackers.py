@@ -238,3 +238,28 @@ def test_filtered_flood_gives_the_full_tracker_its_place(flood):
     _, raw, filtered = flood
     assert filtered[FILTER_REFERENCE] > raw[FILTER_REFERENCE] + 0.3
     assert filtered[FILTER_REFERENCE] >= filtered["3D DIoU"] - 0.01
+
+
+@pytest.mark.parametrize("config", load_tracker_configs(TRACKER_CONFIGS), ids=lambda c: c.name)
+def test_a_player_the_engine_places_elsewhere_is_born_again(config):
+    """A restart: the player vanishes at x = 0 and walks on from x = 30 m. No tracker links the two (a jump of
+    30 m is beyond every association gate): the old track ends, the new place is a new birth, as the
+    study's ground truth counts it (`train.study.truth_frames`)."""
+    before = walker(0.0, 0.3, range(0, 10))
+    after = {f: boxes + [30.0, 0, 0, 0, 0, 0, 0] for f, boxes in walker(0.0, 0.3, range(10, 25)).items()}
+    after = {f: boxes for f, boxes in after.items() if f >= 12}  # the detector's window no longer spans the jump
+    out = track_clip(make_tracker(config), frames_of(before, after, n_frames=25))
+    old = {int(i) for frame in out[:10] for i in frame.ids}
+    new = {int(i) for frame in out[16:] for i in frame.ids}
+    assert len(old) == 1 and len(new) == 1 and not old & new
+
+
+def test_the_ground_truth_starts_a_new_identity_at_a_placement():
+    from train.data import Sample
+    from train.study import truth_frames
+
+    def sample(t: int, placed: list[bool]) -> Sample:
+        return Sample("c", t, (), np.zeros((2, 3, 7), np.float32), np.ones((2, 3), bool), np.array([4, 9]), np.array(placed))
+
+    frames = truth_frames([sample(2, [False, False]), sample(3, [True, False]), sample(4, [False, False]), sample(5, [True, True])])
+    assert [f.ids.tolist() for f in frames] == [[0, 1], [2, 1], [2, 1], [3, 4]]

@@ -36,8 +36,9 @@ class Sample:
     index: int  # frame t
     points: tuple[NDArray[np.float32], ...]  # per input frame, oldest first: (P, 4) x, y, z, intensity
     boxes: NDArray[np.float32]  # (G, 3, 7) each object's boxes at t-2, t-1, t
-    box_mask: NDArray[np.bool_]  # (G, 3) False where the track has no label at that frame
+    box_mask: NDArray[np.bool_]  # (G, 3) False where the track has no label at that frame, or one before a placement
     track_id: NDArray[np.int64]  # (G,)
+    placed: NDArray[np.bool_]  # (G,) the box at t has a discontinuity: the engine placed the humanoid since t-1
 
 
 def sample_keys(dataset: simgen.datasets.Dataset, split: str | None) -> list[tuple[str, int]]:
@@ -48,8 +49,14 @@ def sample_keys(dataset: simgen.datasets.Dataset, split: str | None) -> list[tup
     return [(clip, t) for clip in clips for t in range(TRACKLET_FRAMES - 1, dataset.num_frames(clip))]
 
 
+def _discontinuity(frame: simgen.datasets.Frame) -> NDArray[np.bool_]:
+    return np.zeros(len(frame.boxes), bool) if frame.discontinuity is None else frame.discontinuity
+
+
 def load_sample(dataset: simgen.datasets.Dataset, clip: str, index: int, config: DetectorConfig) -> Sample:
-    """Read frames t-2..t and match the boxes of the objects at t by track id."""
+    """Read frames t-2..t and match the boxes of the objects at t by track id. Where the engine placed
+    an object for a restart within the window (a box's discontinuity flag), its boxes before the
+    placement are masked: they belong to another segment of its motion."""
     frames = dataset.sequence(clip, index, TRACKLET_FRAMES)
     if any(f.track_id is None for f in frames):
         raise UserError(f"{dataset.root}: the detector needs track ids (write the dataset as parquet or kitti_tracking)")
@@ -58,17 +65,22 @@ def load_sample(dataset: simgen.datasets.Dataset, clip: str, index: int, config:
     track_id = last.track_id[keep].astype(np.int64)
     boxes = np.repeat(last.boxes[keep][:, None], TRACKLET_FRAMES, axis=1)
     mask = np.ones((len(track_id), TRACKLET_FRAMES), bool)
+    placed = np.zeros((len(track_id), TRACKLET_FRAMES), bool)
+    placed[:, -1] = _discontinuity(last)[keep]
     for k, frame in enumerate(frames[:-1]):
         order = np.argsort(frame.track_id)
         at = np.searchsorted(frame.track_id, track_id, sorter=order).clip(0, max(len(order) - 1, 0))
         found = (frame.track_id[order[at]] == track_id) if len(order) else np.zeros(len(track_id), bool)
         boxes[found, k] = frame.boxes[order[at[found]]]
+        placed[found, k] = _discontinuity(frame)[order[at[found]]]
         mask[:, k] = found
+    for k in range(1, TRACKLET_FRAMES):
+        mask[placed[:, k], :k] = False
     clouds = frames[-config.model.fusion.input_frames:]
     points = tuple(
         np.column_stack([f.points_m, f.intensity.astype(np.float32) / 255.0]).astype(np.float32) for f in clouds
     )
-    return Sample(clip, index, points, boxes.astype(np.float32), mask, track_id)
+    return Sample(clip, index, points, boxes.astype(np.float32), mask, track_id, placed[:, -1])
 
 
 def augment(sample: Sample, config: AugmentConfig, rng: np.random.Generator) -> Sample:
@@ -102,7 +114,7 @@ def crop(sample: Sample, point_range_m: tuple[float, ...]) -> Sample:
     centre = sample.boxes[:, -1, :2]
     inside = np.all((centre >= low[:2]) & (centre < high[:2]), axis=1)
     return replace(sample, points=points, boxes=sample.boxes[inside], box_mask=sample.box_mask[inside],
-                   track_id=sample.track_id[inside])
+                   track_id=sample.track_id[inside], placed=sample.placed[inside])
 
 
 def model_points(sample: Sample, config: DetectorConfig) -> tuple[NDArray[np.float32], NDArray[np.int64]]:
