@@ -189,9 +189,31 @@ def test_scaled_inputs_bring_every_decoration_to_unit_size():
                               rng.integers(-2, 1, 400)]).astype(np.float32)
     from train.data import pillar_cells
 
-    pillar = torch.from_numpy(pillar_cells(points[:, :3], tiny_config("early")))
+    pillar, point_pillar = (torch.from_numpy(a) for a in np.unique(pillar_cells(points[:, :3], tiny_config("early")), return_inverse=True))
     for encoder in (scaled, plain):
-        encoder(torch.from_numpy(points), pillar, 1)
+        encoder(torch.from_numpy(points), pillar, point_pillar, 1)
     span = seen["scaled"].abs().amax(dim=0)
     assert (span <= 2.0).all() and (span[8:10] >= 0.4).all(), span  # offsets from a 0.25 m pillar's centre: +-0.5
     assert seen["plain"].abs().amax(dim=0)[0] > 10 and seen["plain"].abs().amax(dim=0)[8] <= 0.125 + 1e-6
+
+
+@pytest.mark.parametrize("stride, kernel", [(2, 3), (1, 3), (2, 1), (1, 1)])
+def test_the_sparse_first_convolution_equals_the_dense_one(stride, kernel):
+    """Pillars scattered into zeros and convolved, against the convolution from the pillars alone: the same
+    values (to float32 rounding) and the same gradients for the pillars' features and the weights."""
+    from train.models.sparse_canvas import SparseCanvas, sparse_conv2d
+
+    rng = np.random.default_rng(stride * 10 + kernel)
+    canvases, rows, cols, channels = 3, 17, 12, 5
+    index = torch.from_numpy(np.sort(rng.choice(canvases * rows * cols, 80, replace=False)))
+    features = torch.from_numpy(rng.normal(size=(80, channels)).astype(np.float32)).requires_grad_()
+    conv = torch.nn.Conv2d(channels, 4, kernel, stride, kernel // 2, bias=True)
+    canvas = SparseCanvas(features, index, canvases, rows, cols)
+    dense = conv(canvas.dense())
+    sparse = sparse_conv2d(canvas, conv)
+    assert sparse.shape == dense.shape
+    torch.testing.assert_close(sparse, dense, rtol=1e-5, atol=1e-5)
+    weights = torch.from_numpy(rng.normal(size=dense.shape).astype(np.float32))
+    grads = [torch.autograd.grad((out * weights).sum(), (features, conv.weight, conv.bias)) for out in (dense, sparse)]
+    for got, want in zip(grads[1], grads[0]):
+        torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-4)

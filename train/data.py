@@ -159,7 +159,8 @@ class Batch:
     """Samples collated for the model: torch tensors, points of all samples concatenated."""
 
     features: torch.Tensor  # (P, F) float32
-    pillar: torch.Tensor  # (P,) int64 flat index into (B * canvases * rows * columns)
+    pillar: torch.Tensor  # (U,) int64 the non-empty pillars, sorted flat indices into (B * canvases * rows * columns)
+    point_pillar: torch.Tensor  # (P,) int64 each point's pillar, 0 .. U - 1
     batch_size: int
     targets: Any  # the assigner's collated targets (train.models.target_assigner.BatchTargets), or None
     samples: tuple[Sample, ...]
@@ -167,20 +168,25 @@ class Batch:
     def to(self, device: torch.device, non_blocking: bool = False) -> "Batch":
         targets = None if self.targets is None else self.targets.to(device, non_blocking=non_blocking)
         return replace(self, features=self.features.to(device, non_blocking=non_blocking),
-                       pillar=self.pillar.to(device, non_blocking=non_blocking), targets=targets)
+                       pillar=self.pillar.to(device, non_blocking=non_blocking),
+                       point_pillar=self.point_pillar.to(device, non_blocking=non_blocking), targets=targets)
 
     def pin_memory(self) -> "Batch":
         """Page-locked copies, for asynchronous copies to a CUDA device (DataLoader(pin_memory=True) calls it)."""
         targets = None if self.targets is None else self.targets.pin_memory()
-        return replace(self, features=self.features.pin_memory(), pillar=self.pillar.pin_memory(), targets=targets)
+        return replace(self, features=self.features.pin_memory(), pillar=self.pillar.pin_memory(),
+                       point_pillar=self.point_pillar.pin_memory(), targets=targets)
 
 
 def collate(items: list[Encoded], canvases: int, grid_cells: int, collate_targets: Callable[[list], Any] | None = None) -> Batch:
-    """Concatenate samples; pillar indices get per-sample offsets; targets go to `collate_targets`."""
-    pillar = [(b * canvases + e.canvas) * grid_cells + e.cells for b, e in enumerate(items)]
+    """Concatenate samples and group their points into pillars (indices with per-sample offsets, here in
+    the loader's workers rather than on the model's device); targets go to `collate_targets`."""
+    cells = np.concatenate([(b * canvases + e.canvas) * grid_cells + e.cells for b, e in enumerate(items)])
+    pillar, point_pillar = np.unique(cells, return_inverse=True)
     return Batch(
         features=torch.from_numpy(np.concatenate([e.features for e in items])),
-        pillar=torch.from_numpy(np.concatenate(pillar)),
+        pillar=torch.from_numpy(pillar),
+        point_pillar=torch.from_numpy(point_pillar.reshape(-1)),
         batch_size=len(items),
         targets=None if collate_targets is None else collate_targets([e.targets for e in items]),
         samples=tuple(e.sample for e in items),

@@ -2,7 +2,8 @@
 
 L_cls: sigmoid focal loss over positive and negative anchors; L_loc^i: smooth L1 of box i's
 residuals at positive anchors, the yaw term as sin(yaw_pred - yaw_true) (SECOND); L_dir: cross
-entropy of the direction bin at positive anchors. All are normalised by the number of positives.
+entropy of the direction bin at positive anchors. All are normalised by the number of positives. Nothing here reads a value back from the device:
+a training step runs without host synchronisation (`LossTerms.as_floats` does, every `log_every`).
 """
 
 from __future__ import annotations
@@ -49,10 +50,10 @@ def _sin_yaw(pred: torch.Tensor, target: torch.Tensor) -> tuple[torch.Tensor, to
 def detection_loss(output: HeadOutput, targets: BatchTargets, config: LossConfig) -> LossTerms:
     """The loss of a batch's head outputs (float32) against the assigner's targets."""
     labels = targets.labels.reshape(-1)
-    positives = max(len(targets.positives), 1)
+    positives = max(len(targets.positives), 1)  # a shape, known on the host: no device synchronisation
     scores = output.scores.reshape(-1)
-    cared = labels >= 0
-    cls = focal_loss(scores[cared], (labels[cared] == 1).to(scores.dtype), config.focal_alpha, config.focal_gamma).sum() / positives
+    cared = (labels >= 0).to(scores.dtype)  # weights, not a boolean index (which would synchronise)
+    cls = (focal_loss(scores, (labels == 1).to(scores.dtype), config.focal_alpha, config.focal_gamma) * cared).sum() / positives
 
     boxes = output.deltas.shape[2]
     pred = output.deltas.reshape(-1, boxes, 7)[targets.positives]

@@ -7,6 +7,7 @@ from torch import nn
 
 from train.config import Backbone2dConfig
 from train.models.registry import BACKBONES_2D
+from train.models.sparse_canvas import SparseCanvas, sparse_conv2d
 
 
 def _conv(inputs: int, outputs: int, stride: int = 1) -> list[nn.Module]:
@@ -36,9 +37,13 @@ class Backbone(nn.Module):
             _up(c, u, s) for c, u, s in zip(config.channels, config.upsample_channels, config.upsample_strides)
         )
 
-    def forward(self, image: torch.Tensor) -> list[torch.Tensor]:
+    def forward(self, image: torch.Tensor | SparseCanvas) -> list[torch.Tensor]:
+        """Pseudo-images, dense or sparse (the first convolution then reads the pillars alone)."""
         levels = []
         for block, up in zip(self.blocks, self.ups):
-            image = block(image)
+            if isinstance(image, SparseCanvas):
+                image = block[1:](sparse_conv2d(image, block[0]))
+            else:
+                image = block(image)
             levels.append(up(image))
         return levels

@@ -22,7 +22,8 @@ class PillarBatch(Protocol):
     """What the detector reads of a batch (train.data.Batch)."""
 
     features: torch.Tensor  # (P, F) points of all samples
-    pillar: torch.Tensor  # (P,) int64 flat index into (B * canvases * rows * columns)
+    pillar: torch.Tensor  # (U,) int64 the non-empty pillars, flat index into (B * canvases * rows * columns)
+    point_pillar: torch.Tensor  # (P,) int64 each point's pillar, 0 .. U - 1
     batch_size: int
 
 
@@ -46,7 +47,7 @@ class Detector(nn.Module):
         self.head = HEADS.build(model.head, config.data, model.backbone_2d, sum(channels))
 
     def forward(self, batch: PillarBatch) -> HeadOutput:
-        images = self.pillar_encoder(batch.features, batch.pillar, batch.batch_size * self.canvases)
+        images = self.pillar_encoder(batch.features, batch.pillar, batch.point_pillar, batch.batch_size * self.canvases)
         return self.head(self.fusion(self.backbone_2d(images), batch.batch_size))
 
 

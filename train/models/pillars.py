@@ -1,9 +1,11 @@
-"""Pillar feature net (PointPillars' simplified PointNet, OpenPCDet's PillarVFE) and the scatter to pseudo-images.
+"""Pillar feature net (PointPillars' simplified PointNet, OpenPCDet's PillarVFE) and its pseudo-images.
 
 Each point is decorated with its offsets from the mean of its pillar's points and from the
-pillar's centre (optionally every input divided by its span: `scale_inputs`), goes through Linear + BatchNorm + ReLU, and every pillar keeps the per-channel
-maximum over its points. There is no cap on points or pillars: the scatter is exact. Everything
-after the loader (pillar grouping, decoration, pooling, scatter) runs on the model's device.
+pillar's centre (optionally every input divided by its span: `scale_inputs`), goes through Linear +
+BatchNorm + ReLU, and every pillar keeps the per-channel maximum over its points. There is no cap on
+points or pillars. The loader groups the points into pillars (train.data.collate); decoration and
+pooling run on the model's device, with no host synchronisation. The pseudo-images stay sparse
+(train.models.sparse_canvas): the backbone's first convolution reads the pillars directly.
 """
 
 from __future__ import annotations
@@ -13,11 +15,12 @@ from torch import nn
 
 from train.config import POINT_FEATURES, DataConfig, PillarEncoderConfig
 from train.models.registry import PILLAR_ENCODERS
+from train.models.sparse_canvas import SparseCanvas
 
 
 @PILLAR_ENCODERS.register("pillar_vfe")
 class PillarFeatureNet(nn.Module):
-    """Points (P, F) with flat pillar indices -> pseudo-images (canvases, C, rows, columns)."""
+    """Points (P, F) grouped into pillars -> pseudo-images (canvases, C, rows, columns), kept sparse."""
 
     def __init__(self, section: PillarEncoderConfig, data: DataConfig, point_features: int) -> None:
         super().__init__()
@@ -35,21 +38,20 @@ class PillarFeatureNet(nn.Module):
         self.linear = nn.Linear(point_features + 6, self.channels, bias=False)
         self.norm = nn.BatchNorm1d(self.channels, eps=1e-3, momentum=0.1)
 
-    def forward(self, features: torch.Tensor, pillar: torch.Tensor, canvases: int) -> torch.Tensor:
+    def forward(self, features: torch.Tensor, pillar: torch.Tensor, point_pillar: torch.Tensor, canvases: int) -> SparseCanvas:
+        """Points (P, F), the non-empty pillars' flat cell indices (U,) and each point's pillar (P,) in 0..U-1."""
         cells = self.rows * self.cols
-        unique, inverse = torch.unique(pillar, return_inverse=True)
-        counts = torch.zeros(len(unique), device=features.device).index_add_(0, inverse, torch.ones_like(inverse, dtype=features.dtype))
-        sums = torch.zeros(len(unique), 3, device=features.device).index_add_(0, inverse, features[:, :3])
-        mean = sums / counts[:, None]
-        within = pillar % cells
+        ones = torch.ones_like(point_pillar, dtype=features.dtype)
+        counts = torch.zeros(len(pillar), device=features.device, dtype=features.dtype).index_add_(0, point_pillar, ones)
+        sums = torch.zeros(len(pillar), 3, device=features.device, dtype=features.dtype).index_add_(0, point_pillar, features[:, :3])
+        mean = sums / counts.clamp(min=1)[:, None]
+        within = pillar[point_pillar] % cells
         centre = torch.stack(
             [(within % self.cols).to(features.dtype) + 0.5, (within // self.cols).to(features.dtype) + 0.5], dim=1
         ) * self.pillar_m
         centre = torch.cat([centre, torch.zeros_like(centre[:, :1])], dim=1) + self.origin
-        decorated = torch.cat([features, features[:, :3] - mean[inverse], features[:, :3] - centre], dim=1) * self.input_scale
+        decorated = torch.cat([features, features[:, :3] - mean[point_pillar], features[:, :3] - centre], dim=1) * self.input_scale
         point = torch.relu(self.norm(self.linear(decorated)))
-        pooled = torch.zeros(len(unique), self.channels, device=features.device, dtype=point.dtype)
-        pooled = pooled.scatter_reduce(0, inverse[:, None].expand(-1, self.channels), point, reduce="amax", include_self=True)
-        canvas = torch.zeros(canvases * cells, self.channels, device=features.device, dtype=point.dtype)
-        canvas = canvas.index_copy(0, unique, pooled)
-        return canvas.view(canvases, self.rows, self.cols, self.channels).permute(0, 3, 1, 2).contiguous()
+        pooled = torch.zeros(len(pillar), self.channels, device=features.device, dtype=point.dtype)
+        pooled = pooled.scatter_reduce(0, point_pillar[:, None].expand(-1, self.channels), point, reduce="amax", include_self=True)
+        return SparseCanvas(pooled, pillar, canvases, self.rows, self.cols)
