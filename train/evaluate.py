@@ -22,7 +22,7 @@ import simgen.datasets
 from train.config import TRACKLET_FRAMES, DetectorConfig
 from train.data import Sample, SampleSet, loader
 from train.detections import clip_tracklets, write_kitti, write_tracklets
-from train.metrics.detection import RECALL_POINTS, FrameBoxes, detection_ap
+from train.metrics.detection import RECALL_POINTS, FrameBoxes, detection_aps, similarities
 from train.models.detector import Detector
 from train.postprocess import Detections, postprocess
 
@@ -70,10 +70,11 @@ def average_precisions(
     boxes = results[0][1].boxes.shape[1] if results else 1
     measures = [("bev", IOU_THRESHOLD), ("3d", IOU_THRESHOLD)] + [("centre", d) for d in CENTRE_THRESHOLDS_M]
     rows = []
-    for truth_set in TRUTH_SETS[: 1 if visible is None else 2]:
-        for k in range(boxes):
-            offset = k - boxes + 1
-            at = TRACKLET_FRAMES - 1 + offset
+    for k in range(boxes):
+        offset = k - boxes + 1
+        at = TRACKLET_FRAMES - 1 + offset
+        similarity: dict[str, list] = {}  # per kind, the same for every truth set (they differ in what is ignored)
+        for truth_set in TRUTH_SETS[: 1 if visible is None else 2]:
             frames = [
                 FrameBoxes(d.boxes[:, k], d.scores, s.boxes[s.box_mask[:, at], at],
                            None if truth_set == "all" else ~visible[i][s.box_mask[:, at]])
@@ -81,9 +82,11 @@ def average_precisions(
             ]
             truth, count = sum(f.counted_truth for f in frames), sum(len(f.boxes) for f in frames)
             for kind, threshold in measures:
-                for points in RECALL_POINTS:
-                    ap = detection_ap(frames, kind, threshold, points)
-                    rows.append(ApRow(box_name(offset), kind, points, ap, truth, count, threshold, truth_set))
+                if kind not in similarity:
+                    similarity[kind] = similarities(frames, kind)
+                aps = detection_aps(frames, kind, threshold, RECALL_POINTS, similarity[kind])
+                rows += [ApRow(box_name(offset), kind, points, ap, truth, count, threshold, truth_set)
+                         for points, ap in zip(RECALL_POINTS, aps)]
     return sorted(rows, key=lambda r: (r.truth_set, r.box != "t", r.box, r.iou, r.threshold, r.recall_points))
 
 

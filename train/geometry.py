@@ -156,6 +156,14 @@ def iou_3d(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
     return _iou(_as_boxes(a)[:, None], _as_boxes(b)[None], three_d=True)
 
 
+def bev_iou_pairs(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
+    """(N,) exact BEV IoU of row i of a (N, 7) with row i of b (N, 7)."""
+    arr_a, arr_b = _as_boxes(a), _as_boxes(b)
+    if arr_a.shape != arr_b.shape:
+        raise ValueError(f"paired boxes differ in shape: {arr_a.shape} and {arr_b.shape}")
+    return _iou(arr_a, arr_b, three_d=False)
+
+
 def iou_3d_pairs(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
     """(N,) exact 3D IoU of row i of a (N, 7) with row i of b (N, 7)."""
     arr_a, arr_b = _as_boxes(a), _as_boxes(b)

@@ -26,21 +26,20 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from train.geometry import bev_iou, iou_3d
+from train.geometry import bev_iou_pairs, iou_3d_pairs
 from train.metrics.recall_levels import level_thresholds
 
 
 
-def centre_closeness(a: NDArray, b: NDArray) -> NDArray[np.float64]:
-    """(P, Q) minus the BEV (pitch-plane) distance in metres of the centres of boxes a (P, 7) and b (Q, 7)."""
-    a, b = np.asarray(a, np.float64).reshape(-1, 7), np.asarray(b, np.float64).reshape(-1, 7)
-    return -np.linalg.norm(a[:, None, :2] - b[None, :, :2], axis=-1)
+def centre_closeness_pairs(a: NDArray, b: NDArray) -> NDArray[np.float64]:
+    """(N,) minus the BEV (pitch-plane) distance in metres of the centres of row i of a and b (N, 7)."""
+    return -np.linalg.norm(np.asarray(a, np.float64)[:, :2] - np.asarray(b, np.float64)[:, :2], axis=-1)
 
 
-# Similarity of detected and labelled boxes; a pair matches at or above the threshold (for
+# Similarity of paired detected and labelled boxes; a pair matches at or above the threshold (for
 # "centre": a distance in metres, matched at or below it).
-IOU_FUNCTIONS: dict[str, Callable[[NDArray, NDArray], NDArray[np.float64]]] = {
-    "bev": bev_iou, "3d": iou_3d, "centre": centre_closeness,
+PAIR_FUNCTIONS: dict[str, Callable[[NDArray, NDArray], NDArray[np.float64]]] = {
+    "bev": bev_iou_pairs, "3d": iou_3d_pairs, "centre": centre_closeness_pairs,
 }
 RECALL_POINTS = (40, 11)
 SAMPLE_LEVELS = 40  # thresholds at recall 0, 1/40, ..., 1; R11 reads every fourth
@@ -60,17 +59,27 @@ class FrameBoxes:
         return len(self.truth) if self.ignore is None else int(np.count_nonzero(~self.ignore))
 
 
-def _match(frame: FrameBoxes, iou_kind: str, threshold: float) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
-    """(N,) true positives and (N,) detections matched to an ignored box, in the input order."""
+def similarities(frames: Sequence[FrameBoxes], iou_kind: str) -> list[NDArray[np.float64]]:
+    """Per frame, (N, G) similarity of its detections and labelled boxes: every frame's pairs in one
+    call (thousands of small per-frame calls cost more than the geometry)."""
+    sizes = [(len(f.boxes), len(f.truth)) for f in frames]
+    detected = np.concatenate([np.repeat(np.asarray(f.boxes, np.float64).reshape(-1, 7), g, axis=0) for f, (_, g) in zip(frames, sizes)] or [np.zeros((0, 7))])
+    truth = np.concatenate([np.tile(np.asarray(f.truth, np.float64).reshape(-1, 7), (n, 1)) for f, (n, _) in zip(frames, sizes)] or [np.zeros((0, 7))])
+    flat = PAIR_FUNCTIONS[iou_kind](detected, truth)
+    ends = np.cumsum([n * g for n, g in sizes])
+    return [block.reshape(n, g) for block, (n, g) in zip(np.split(flat, ends[:-1]), sizes)]
+
+
+def _match(frame: FrameBoxes, similarity: NDArray[np.float64], threshold: float) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """(N,) true positives and (N,) detections matched to an ignored box, in the input order; `similarity`
+    (N, G) at or above `threshold` matches."""
     tp, dropped = np.zeros(len(frame.boxes), bool), np.zeros(len(frame.boxes), bool)
     if len(frame.boxes) == 0 or len(frame.truth) == 0:
         return tp, dropped
-    similarity = IOU_FUNCTIONS[iou_kind](frame.boxes, frame.truth)
-    if iou_kind == "centre":
-        threshold = -threshold
     ignore = np.zeros(len(frame.truth), bool) if frame.ignore is None else frame.ignore
     taken = np.zeros(len(frame.truth), bool)
-    for i in np.argsort(-frame.scores, kind="stable"):
+    order = np.argsort(-frame.scores, kind="stable")
+    for i in order[similarity[order].max(axis=1) >= threshold]:  # the others match nothing, whatever is taken
         free = np.where(taken, -np.inf, similarity[i])
         best = int(free.argmax())
         if free[best] >= threshold:
@@ -79,9 +88,13 @@ def _match(frame: FrameBoxes, iou_kind: str, threshold: float) -> tuple[NDArray[
     return tp, dropped
 
 
+def _threshold(iou_kind: str, threshold: float) -> float:
+    return -threshold if iou_kind == "centre" else threshold  # centre similarity is minus the distance
+
+
 def match_frame(frame: FrameBoxes, iou_kind: str, threshold: float) -> NDArray[np.bool_]:
     """(N,) True for each detection that is a true positive, in the input order."""
-    return _match(frame, iou_kind, threshold)[0]
+    return _match(frame, similarities([frame], iou_kind)[0], _threshold(iou_kind, threshold))[0]
 
 
 def average_precision(scores: NDArray[np.float32], tp: NDArray[np.bool_], num_truth: int, recall_points: int) -> float:
@@ -110,12 +123,21 @@ def average_precision(scores: NDArray[np.float32], tp: NDArray[np.bool_], num_tr
     return float(100.0 * chosen.mean())
 
 
-def detection_ap(frames: Sequence[FrameBoxes], iou_kind: str, threshold: float = 0.5, recall_points: int = 40) -> float:
-    """AP in percent over frames, with IoU `iou_kind` ('bev' or '3d') at `threshold`, or 'centre' within
-    `threshold` metres; detections on ignored labelled boxes are left out."""
-    matched = [_match(f, iou_kind, threshold) for f in frames]
-    scores = [f.scores[~dropped] for f, (_, dropped) in zip(frames, matched)]
-    tps = [tp[~dropped] for tp, dropped in matched]
+def detection_aps(frames: Sequence[FrameBoxes], iou_kind: str, threshold: float = 0.5,
+                  recall_points: Sequence[int] = RECALL_POINTS, similarity: list[NDArray[np.float64]] | None = None) -> list[float]:
+    """AP in percent over frames at each of `recall_points`, with IoU `iou_kind` ('bev' or '3d') at
+    `threshold`, or 'centre' within `threshold` metres; detections on ignored labelled boxes are left
+    out. `similarity`: the frames' `similarities` for `iou_kind`, when the caller has them already."""
+    similarity = similarities(frames, iou_kind) if similarity is None else similarity
+    matched = [_match(f, m, _threshold(iou_kind, threshold)) for f, m in zip(frames, similarity)]
     if not frames:
-        return average_precision(np.zeros(0, np.float32), np.zeros(0, bool), 0, recall_points)
-    return average_precision(np.concatenate(scores), np.concatenate(tps), sum(f.counted_truth for f in frames), recall_points)
+        return [average_precision(np.zeros(0, np.float32), np.zeros(0, bool), 0, points) for points in recall_points]
+    scores = np.concatenate([f.scores[~dropped] for f, (_, dropped) in zip(frames, matched)])
+    tps = np.concatenate([tp[~dropped] for tp, dropped in matched])
+    truth = sum(f.counted_truth for f in frames)
+    return [average_precision(scores, tps, truth, points) for points in recall_points]
+
+
+def detection_ap(frames: Sequence[FrameBoxes], iou_kind: str, threshold: float = 0.5, recall_points: int = 40) -> float:
+    """AP in percent over frames (`detection_aps` at one number of recall points)."""
+    return detection_aps(frames, iou_kind, threshold, (recall_points,))[0]
