@@ -93,6 +93,11 @@ class ScanConfig(_Strict):
     density: float = Field(1.0, gt=0.0, le=64.0, description="Shots per second as a multiple of the real sensor's.")
     sweeps_per_frame: int = Field(1, ge=1, le=16, description="Sweeps merged into one frame (the paper: two 20 Hz sweeps).")
     frames: int | None = Field(None, ge=1, le=1_000_000, description="Frames per clip (default: as many as the motion allows).")
+    timing: Literal["sweep", "snapshot"] = Field(
+        "sweep", description="sweep: each shot meets the scene at its own time, as a real Livox scans (fast players smear); "
+        "snapshot: every shot of a frame meets the scene as it is at the frame's label time (the paper samples the "
+        "engine's depth map once per frame), and every point carries that time.",
+    )
 
 
 class DatasetConfig(_Strict):

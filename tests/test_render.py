@@ -118,13 +118,12 @@ def test_ball_lines_and_every_shot_accounted_for():
     assert frame.intensity[frame.semantic == LINE].mean() > frame.intensity[frame.semantic == GROUND].mean()
 
 
-def test_fast_player_smears_within_a_sweep():
-    """Points of a player running 8 m/s across a 100 ms sweep spread along the run by about 0.8 m."""
+def _sprinter() -> tuple[MotionClip, Rays]:
+    """A player running 8 m/s along x, 10 m from a sensor, and a 100 ms sweep of 40,000 shots at him."""
     kp = keypoints(PRESETS["standing"], yaw_rad=0.0, position_m=(0.0, 10.0))
     frames = np.stack([kp + [8.0 * t, 0, 0] for t in np.arange(11) * 0.1])
     clip = still_clip([kp], ["left"])
     clip = MotionClip(**{**clip.__dict__, "keypoints_m": frames[:, None].astype(np.float32)})
-    world = World(clip, build_static_scene(goals=False))
     rng = np.random.default_rng(0)
     n = 40000
     directions = np.stack([rng.uniform(-0.2, 0.3, n), np.ones(n), rng.uniform(-0.15, 0.05, n)], axis=1)
@@ -135,6 +134,32 @@ def test_fast_player_smears_within_a_sweep():
         np.zeros(n, np.uint8),
         np.zeros(n, np.uint8),
     )
+    return clip, rays
+
+
+def test_a_snapshot_sees_a_moving_player_where_his_box_is_at_the_label_time():
+    """`scan.timing: snapshot`: every shot meets the scene at 0.25 s; all the sprinter's points lie in his box
+    at 0.25 s (2 mm for the mesh's float32), all carry that time; the sweep's points spread 0.8 m beyond it."""
+    from simgen.labels.boxes import label_poses
+    from simgen.qa.label_checks import in_box
+
+    clip, rays = _sprinter()
+    world = World(clip, build_static_scene(goals=False))
+    box = label_poses(clip, np.array([0.25]))[2][0, 0]
+    snapshot = render_frame(world, rays, 0.2, EXACT, np.random.default_rng(0), snapshot_s=0.25)
+    sweep = render_frame(world, rays, 0.2, EXACT, np.random.default_rng(0))
+    body, swept = snapshot.points_m[snapshot.instance_id == 0], sweep.points_m[sweep.instance_id == 0]
+    assert len(body) > 100 and in_box(body, box, 0.002).all()
+    np.testing.assert_allclose(snapshot.time_offset_s, 0.05, atol=1e-7)
+    assert (~in_box(swept, box, 0.002)).sum() > 0.3 * len(swept)
+    assert np.ptp(swept[:, 0]) > np.ptp(body[:, 0]) + 0.6
+
+
+def test_fast_player_smears_within_a_sweep():
+    """Points of a player running 8 m/s across a 100 ms sweep spread along the run by about 0.8 m."""
+    clip, rays = _sprinter()
+    world = World(clip, build_static_scene(goals=False))
+    rng = np.random.default_rng(0)
     frame = render_frame(world, rays, 0.2, EXACT, rng)
     body = frame.instance_id == 0
     early = body & (frame.time_offset_s < 0.02)

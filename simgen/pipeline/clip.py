@@ -74,6 +74,7 @@ def render_frames(scenario: Scenario, clip: MotionClip, clip_index: int, first: 
         frame_start = start + index / rate
         rays = frame_rays(scenario, specs, index, start)
         rng = np.random.default_rng(np.random.SeedSequence([scenario.seed, clip_index, index]))
-        scan = render_frame(world, rays, frame_start, scenario.noise, rng)
+        snapshot_s = float(label_times[j]) if scenario.scan.timing == "snapshot" else None
+        scan = render_frame(world, rays, frame_start, scenario.noise, rng, snapshot_s)
         labels = frame_labels(boxes[j], keypoints[j], velocity[j], clip.track_id, clip.team, clip.role, scan.instance_id, discontinuity[j])
         yield LabelledFrame(clip_name(clip_index), index, frame_start, float(label_times[j]), scan, labels)

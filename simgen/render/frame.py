@@ -91,8 +91,9 @@ def _cos_incidence(normals: NDArray, directions: NDArray) -> NDArray[np.float64]
     return np.abs(np.einsum("ni,ni->n", normals, directions)) / np.linalg.norm(normals, axis=1)
 
 
-def cast(world: World, rays: Rays, rng: np.random.Generator) -> dict:
-    """First hits of every ray: t (inf: none), semantic, instance, reflectivity, cos(incidence)."""
+def cast(world: World, rays: Rays, rng: np.random.Generator, snapshot_s: float | None = None) -> dict:
+    """First hits of every ray: t (inf: none), semantic, instance, reflectivity, cos(incidence); each ray
+    meets the scene at its own time, or every ray at `snapshot_s`."""
     n = len(rays.time_s)
     o, d = rays.origin_m, rays.direction
     t, semantic, reflectivity, cos_incidence = _ground_hits(o, d)
@@ -102,9 +103,12 @@ def cast(world: World, rays: Rays, rng: np.random.Generator) -> dict:
 
     # Bounding spheres of everything but the ground, per time slice: the H bodies, the ball,
     # then the static objects; each ray meets those of its own slice.
-    slice_of_ray = world.slice_index(rays.time_s)
-    first = int(slice_of_ray.min())
-    poses = world.poses(first, int(slice_of_ray.max()) - first + 1)
+    if snapshot_s is None:
+        slice_of_ray = world.slice_index(rays.time_s)
+        first = int(slice_of_ray.min())
+        poses = world.poses(first, int(slice_of_ray.max()) - first + 1)
+    else:
+        slice_of_ray, first, poses = np.zeros(n, np.int64), 0, world.pose_at(snapshot_s)
     num_slices, num_humanoids = poses.middle_m.shape[:2]
     statics = world.static_spheres
     centres = np.concatenate([poses.middle_m, poses.ball_m[:, None], np.broadcast_to(statics[:, :3], (num_slices, len(statics), 3))], axis=1)
@@ -166,9 +170,15 @@ def cast(world: World, rays: Rays, rng: np.random.Generator) -> dict:
     return {"t": t, "semantic": semantic, "instance": instance, "reflectivity": reflectivity, "cos_incidence": cos_incidence}
 
 
-def render_frame(world: World, rays: Rays, frame_start_s: float, noise: NoiseConfig, rng: np.random.Generator) -> ScanFrame:
-    """Cast a sweep's shots, keep each shot's nearest return in range, and apply the noise model."""
-    hit = cast(world, expand_subrays(rays, noise), rng)
+def render_frame(
+    world: World, rays: Rays, frame_start_s: float, noise: NoiseConfig, rng: np.random.Generator, snapshot_s: float | None = None
+) -> ScanFrame:
+    """Cast a sweep's shots, keep each shot's nearest return in range, and apply the noise model.
+
+    `snapshot_s`: every shot meets the scene as it is at that one instant, and every point carries
+    that time (`scan.timing: snapshot`, the paper's sampling of a depth map); otherwise each shot
+    meets it at its own time (a real Livox's sweep, `scan.timing: sweep`)."""
+    hit = cast(world, expand_subrays(rays, noise), rng, snapshot_s)
     on = noise.enabled
     k, points, intensity, missed, dropped = noisy_returns(
         rays.origin_m,
@@ -188,7 +198,7 @@ def render_frame(world: World, rays: Rays, frame_start_s: float, noise: NoiseCon
     return ScanFrame(
         points_m=points,
         intensity=intensity,
-        time_offset_s=(rays.time_s[shot] - frame_start_s).astype(np.float32),
+        time_offset_s=((rays.time_s[shot] if snapshot_s is None else np.full(len(shot), snapshot_s)) - frame_start_s).astype(np.float32),
         sensor=rays.sensor[shot],
         head=rays.head[shot],
         sweep=rays.sweep[shot],

@@ -89,14 +89,21 @@ class World:
                 del self._chunks[min(self._chunks)]
             first = chunk * POSE_CHUNK_SLICES
             count = min(POSE_CHUNK_SLICES, self.num_slices - first)
-            times = np.clip(self.clip.time_s[0] + (first + np.arange(count) + 0.5) * SLICE_S, self.clip.time_s[0], self.clip.time_s[-1])
-            keypoints, ball = interpolate_clip(self.clip, times)
-            rotation, translation = part_frames(keypoints.reshape(-1, 12, 3))
-            shape = (count, self.clip.num_humanoids, self.num_parts)
-            rotation, translation = rotation.reshape(shape + (3, 3)), translation.reshape(shape + (3,))
-            # Each body's bounding sphere round `middle`: its parts' spheres, as posed.
-            middle = keypoints[:, :, KEYPOINT_INDEX["middle"]]
-            centres = np.einsum("shpij,hpj->shpi", rotation, self.part_centre_m) + translation
-            reach = (np.linalg.norm(centres - middle[:, :, None], axis=3) + self.part_radius_m).max(axis=2)
-            self._chunks[chunk] = SlicePoses(first, middle, reach, ball, rotation, translation)
+            self._chunks[chunk] = self._posed(first, self.clip.time_s[0] + (first + np.arange(count) + 0.5) * SLICE_S)
         return self._chunks[chunk]
+
+    def pose_at(self, time_s: float) -> SlicePoses:
+        """Everything posed at one instant (s), as one slice (`first` 0): a frame cast as a snapshot."""
+        return self._posed(0, np.array([time_s]))
+
+    def _posed(self, first: int, times_s: NDArray) -> SlicePoses:
+        """Humanoids and ball posed at times (S,) (clamped to the clip), as slices first .. first + S - 1."""
+        keypoints, ball = interpolate_clip(self.clip, np.clip(times_s, self.clip.time_s[0], self.clip.time_s[-1]))
+        rotation, translation = part_frames(keypoints.reshape(-1, 12, 3))
+        shape = (len(times_s), self.clip.num_humanoids, self.num_parts)
+        rotation, translation = rotation.reshape(shape + (3, 3)), translation.reshape(shape + (3,))
+        # Each body's bounding sphere round `middle`: its parts' spheres, as posed.
+        middle = keypoints[:, :, KEYPOINT_INDEX["middle"]]
+        centres = np.einsum("shpij,hpj->shpi", rotation, self.part_centre_m) + translation
+        reach = (np.linalg.norm(centres - middle[:, :, None], axis=3) + self.part_radius_m).max(axis=2)
+        return SlicePoses(first, middle, reach, ball, rotation, translation)
