@@ -156,3 +156,29 @@ def test_the_data_layer_does_not_import_the_models():
     code = "import sys, train.data; print(sorted(m for m in sys.modules if m.startswith('train.models')))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
     assert done.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize("protocol", ["clip", "frame"])
+def test_no_training_window_shares_a_frame_with_a_val_window(tmp_path, protocol):
+    """Both splits: train and val windows (t-2..t) never share a frame; `frame` holds out about one clip's
+    frames spread over every clip, `clip` whole clips."""
+    from dataset_factory import make_clip, write_dataset
+
+    from train.data import sample_keys
+
+    write_dataset(tmp_path, "parquet", [make_clip(f"clip_{i:04d}", 40, points=50, humanoids=2, seed=i) for i in range(4)])
+    data = simgen.datasets.open(tmp_path)
+    train, val = sample_keys(data, "train", protocol), sample_keys(data, "val", protocol)
+
+    def frames(keys):
+        return {(clip, t - k) for clip, t in keys for k in range(3)}
+
+    assert train and val and not frames(train) & frames(val)
+    assert set(train) | set(val) <= set(sample_keys(data, None, protocol))
+    if protocol == "frame":
+        assert {clip for clip, _ in val} == set(data.clips)
+        assert abs(len(frames(val)) - 40) <= 6  # about one clip's frames (whole windows of three)
+        nearest = min(abs(t - v) for c, t in train for d, v in val if c == d)
+        assert nearest == 3  # one frame (~0.1 s) between a training window and a val window
+    else:
+        assert {clip for clip, _ in val} == {c for c in data.clips if data.split(c) == "val"}

@@ -23,8 +23,9 @@ from train.config import DetectorConfig, load_config
 from train.evaluate import detect, evaluate, format_ap_table, write_ap_csv
 from train.fit import fit
 from train.models.detector import Detector
-from train.study import CONFIGS, PRESETS, SCENARIOS, StudyOptions, parse_models, run_study
+from train.study import CONFIGS, PRESETS, SCENARIOS, StudyOptions, parse_models, run_study, seed_runs
 from train.study_report import write_tables
+from train.study_seeds import write_seed_tables
 
 SPLITS = ("train", "val", "all")
 
@@ -91,18 +92,41 @@ def _detect(args: argparse.Namespace) -> int:
     return 0
 
 
+def _seeds(text: str | None) -> tuple[int, ...] | None:
+    """`--seeds 0,1,2` -> (0, 1, 2): distinct non-negative integers."""
+    if text is None:
+        return None
+    try:
+        seeds = tuple(int(part) for part in text.split(","))
+    except ValueError:
+        raise UserError(f"--seeds: {text!r} is not a comma-separated list of integers") from None
+    if not seeds or len(set(seeds)) != len(seeds) or min(seeds) < 0:
+        raise UserError(f"--seeds: {text!r}: give distinct seeds >= 0")
+    return seeds
+
+
 def _one_study(args: argparse.Namespace, scenario_path: str, models_text: str, configs: str, out: str) -> list[Path]:
-    """One scenario's study; returns the table files."""
+    """One scenario's study (once per seed with --seeds); returns the table files."""
     scenario = load_scenario(scenario_path)
     models = parse_models(models_text, scenario.scan.density)
+    seeds = _seeds(args.seeds)
+    if seeds is not None and args.seed is not None:
+        raise UserError("study: give --seed or --seeds, not both")
     options = StudyOptions(Path(scenario_path), Path(out), Path(args.datasets), models, args.iterations, args.workers,
-                           args.seed, Path(configs), _device(args.device), not args.quiet)
+                           args.seed, Path(configs), _device(args.device), not args.quiet, split=args.split)
     spelled = [scenario_path, "-o", out, "--models", ",".join(models), "--datasets", args.datasets]
     spelled += ["--device", args.device]
-    for key in ("iterations", "workers", "seed"):
+    for key in ("iterations", "workers", "seed", "seeds", "split"):
         spelled += [f"--{key}", str(getattr(args, key))] if getattr(args, key) is not None else []
     spelled += ["--configs", configs] if Path(configs) != CONFIGS else []
-    return write_tables(run_study(options, scenario), shlex.join(["simgen-train", "study", *spelled]), options.out)
+    command = shlex.join(["simgen-train", "study", *spelled])
+    if seeds is None:
+        return write_tables(run_study(options, scenario), command, options.out)
+    paths, results = [], []
+    for run in tqdm(seed_runs(options, seeds), desc="study --seeds", unit="seed", disable=args.quiet):
+        results.append(run_study(run, scenario))
+        paths += write_tables(results[-1], command, run.out)
+    return paths + write_seed_tables(results, seeds, command, options.out)
 
 
 def _study(args: argparse.Namespace) -> int:
@@ -163,6 +187,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--iterations", type=int, help="training batches per model (default: each config's)")
     p.add_argument("--workers", type=int, help="override train.workers (loader processes)")
     p.add_argument("--seed", type=int, help="override the configs' seed")
+    p.add_argument("--seeds", help="train and score every model once per seed, e.g. 0,1,2: OUT/seed_<seed>/ each, and "
+                   "OUT/table1.md, table2.md with mean, spread and whether the paper's orderings hold beyond it")
+    p.add_argument("--split", choices=("clip", "frame"), help="train/val split for every model (default: the configs', "
+                   "clip): clip holds out whole clips; frame holds out every k-th t-2..t window of every clip, no "
+                   "training window sharing a frame with a val one (Table 2 needs clip)")
     p.add_argument("--datasets", default="datasets", help="folder of datasets by scenario name (default: datasets)")
     p.add_argument("--configs", default=str(CONFIGS), help="folder with single/early/late.yaml (default: train/configs; "
                    "--preset sets it)")

@@ -40,6 +40,9 @@ class DataConfig(_Strict):
     pillar_size_m: float = Field(0.25, gt=0.0)
     classes: tuple[str, ...] = ("Pedestrian", "Official")  # label classes detected, as one class
     augment: AugmentConfig = AugmentConfig()
+    # Which samples are train and val (train.data.sample_keys): `clip`, the dataset's own split (whole clips
+    # held out); `frame`, every k-th t-2..t window of all clips held out (the paper does not say which it used).
+    split: Literal["clip", "frame"] = "clip"
 
     @model_validator(mode="after")
     def _grid(self) -> "DataConfig":

@@ -41,12 +41,30 @@ class Sample:
     placed: NDArray[np.bool_]  # (G,) the box at t has a discontinuity: the engine placed the humanoid since t-1
 
 
-def sample_keys(dataset: simgen.datasets.Dataset, split: str | None) -> list[tuple[str, int]]:
-    """(clip, t) for every frame with two before it, in the clips of `split` (None: all)."""
-    clips = [c for c in dataset.clips if split is None or dataset.split(c) == split]
-    if not clips:
-        raise UserError(f"{dataset.root}: no clips in the {split!r} split")
-    return [(clip, t) for clip in clips for t in range(TRACKLET_FRAMES - 1, dataset.num_frames(clip))]
+def sample_keys(dataset: simgen.datasets.Dataset, split: str | None, protocol: str = "clip") -> list[tuple[str, int]]:
+    """(clip, t) for every frame t with two before it in `split` (None: all), by `protocol`:
+
+    - `clip`: the windows of the clips the dataset puts in that split;
+    - `frame`: every k-th window of each clip is `val`, k chosen so that val holds about as many frames
+      as one clip (three per window), and `train` is every window that shares no frame with a val one
+      (so the nearest training frame is one frame, ~0.1 s, from a val frame: as near as a random split
+      of frames puts them).
+    """
+    if protocol == "clip":
+        clips = [c for c in dataset.clips if split is None or dataset.split(c) == split]
+        if not clips:
+            raise UserError(f"{dataset.root}: no clips in the {split!r} split")
+        return [(clip, t) for clip in clips for t in range(TRACKLET_FRAMES - 1, dataset.num_frames(clip))]
+    windows = {c: list(range(TRACKLET_FRAMES - 1, dataset.num_frames(c))) for c in dataset.clips}
+    clip_frames = round(np.mean([dataset.num_frames(c) for c in dataset.clips]))
+    every = max(2 * TRACKLET_FRAMES, round(TRACKLET_FRAMES * sum(map(len, windows.values())) / max(clip_frames, 1)))
+    val = {c: [t for t in ts if (t - TRACKLET_FRAMES + 1) % every == every // 2] for c, ts in windows.items()}
+    if split is None:
+        return [(c, t) for c, ts in windows.items() for t in ts]
+    if split == "val":
+        return [(c, t) for c, ts in val.items() for t in ts]
+    apart = {c: [t for t in ts if all(abs(t - v) >= TRACKLET_FRAMES for v in val[c])] for c, ts in windows.items()}
+    return [(c, t) for c, ts in apart.items() for t in ts]
 
 
 def _discontinuity(frame: simgen.datasets.Frame) -> NDArray[np.bool_]:
@@ -204,7 +222,7 @@ class SampleSet(torch.utils.data.Dataset):
     def __init__(self, path: str, split: str | None, config: DetectorConfig, draws: int | None = None,
                  assign: Assign | None = None) -> None:
         self.path, self.config, self.draws, self.assign = path, config, draws, assign
-        self.keys = sample_keys(simgen.datasets.open(path), split)
+        self.keys = sample_keys(simgen.datasets.open(path), split, config.data.split)
         self._dataset: simgen.datasets.Dataset | None = None  # opened again in each worker process
 
     def __len__(self) -> int:

@@ -76,6 +76,7 @@ class StudyOptions:
     device: torch.device
     progress: bool
     trackers: Path = TRACKER_CONFIGS  # folder of tracker configs
+    split: str | None = None  # `data.split` for every model (clip or frame); None: the configs'
 
 
 @dataclass(frozen=True)
@@ -123,8 +124,8 @@ class FilterChoice:
 class StudyResult:
     dataset: StudyDataset
     detectors: list[DetectorResult]
-    trackers: list[TrackerResult]
-    filter: FilterChoice
+    trackers: list[TrackerResult]  # none with the frame split (no contiguous val sequence to track)
+    filter: FilterChoice | None
     tracking_s: float
     seconds: float  # the whole study
     device: str
@@ -170,6 +171,11 @@ def prepare_dataset(scenario_path: Path, scenario: Scenario, datasets: Path, pro
     return StudyDataset(root, scenario, generated, time.perf_counter() - start, val, frames)
 
 
+def seed_runs(options: StudyOptions, seeds: tuple[int, ...]) -> list[StudyOptions]:
+    """The study once per training seed, each into OUT/seed_<seed>/ (the data stays the same)."""
+    return [replace(options, seed=seed, out=options.out / f"seed_{seed}") for seed in seeds]
+
+
 def model_config(options: StudyOptions, model: str) -> DetectorConfig:
     """`<configs>/<model>.yaml` with the study's iterations, workers and seed, validated again."""
     path = options.configs / f"{model}.yaml"
@@ -177,6 +183,8 @@ def model_config(options: StudyOptions, model: str) -> DetectorConfig:
     data["train"].update({k: v for k, v in (("iterations", options.iterations), ("workers", options.workers)) if v is not None})
     if options.seed is not None:
         data["seed"] = options.seed
+    if options.split is not None:
+        data["data"]["split"] = options.split
     config = parse_config(data, f"{path} (with the study's options)")
     if config.model.method != model:
         raise UserError(f"{path}: is a {config.model.method!r} model, the study needs {model!r} there")
@@ -327,13 +335,16 @@ def run_study(options: StudyOptions, scenario: Scenario) -> StudyResult:
         rows, detections = detect_val(detector, config, dataset, options)
         detectors.append(DetectorResult(model, config, reused, fit_s, time.perf_counter() - began, rows))
         if model == TRACKED_MODEL:
-            tracked = (detections, clip_set(detect_split(detector, config, dataset, "train", options)))
+            on_train = clip_set(detect_split(detector, config, dataset, "train", options)) if config.data.split == "clip" else None
+            tracked = (detections, on_train)
             (options.out / model / "tracklets").mkdir(parents=True, exist_ok=True)
             for clip, clip_rows in detections.tracklets.items():
                 write_tracklets(options.out / model / "tracklets" / f"{clip}.npz", clip_rows)
     began = time.perf_counter()
     val, train = tracked
-    choice = choose_tracklet_filter(train, val, configs, options.progress)
-    trackers = track(val, configs, choice.chosen, options.progress)
+    choice, trackers = None, []
+    if detectors[0].config.data.split == "clip":  # the frame split's val windows are scattered: nothing to track
+        choice = choose_tracklet_filter(train, val, configs, options.progress)
+        trackers = track(val, configs, choice.chosen, options.progress)
     now = time.perf_counter()
     return StudyResult(dataset, detectors, trackers, choice, now - began, now - start, options.device.type)

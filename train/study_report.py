@@ -43,10 +43,17 @@ def header(result: StudyResult, command: str) -> list[str]:
         f"- Dataset: `{d.path}`, scenario `{scenario.name}` (seed {scenario.seed}, density x{scenario.scan.density:g}), {made}; "
         f"val clips {', '.join(d.val_clips)}: {d.val_frames} frames, scored from each clip's third frame on.",
         f"- Budget: {budget}; loader processes: {first.train.workers}; device {result.device}.",
-        f"- Seed: {first.seed} (training draws and augmentation).",
+        f"- Seed: {first.seed} (training draws and augmentation). Split: {_split_text(first.data.split)}.",
         f"- Timing: {timing}; tracking and its metrics {result.tracking_s:.0f} s; whole study {result.seconds:.0f} s.",
         "",
     ]
+
+
+def _split_text(split: str) -> str:
+    if split == "clip":
+        return "by clip (the dataset's val clips held out whole)"
+    return ("by frame (every k-th t-2..t window of every clip held out, k so that val holds about one clip's frames; "
+            "no training window shares a frame with a val window: train.data.sample_keys)")
 
 
 def _number(value: float | None, digits: int = 2) -> str:
@@ -117,6 +124,9 @@ def _tracker_values(r: TrackerResult) -> tuple:
 def table2_markdown(result: StudyResult, command: str) -> str:
     choice = result.filter
     lines = [f"# Table 2 on `{result.dataset.scenario.name}`: tracking the late model's tracklets", "", *header(result, command)]
+    if choice is None:
+        return "\n".join(lines + ["Not run: with the frame split the val windows are scattered over the clips, so there is "
+                                  "no contiguous val sequence to track (Table 2 needs the clip split)."]) + "\n"
     before, after = choice.val_tracklets_per_frame
     lines += [
         "AB3DMOT's metrics (train.metrics.tracking) on the val clips against the labelled boxes and track ids; "
