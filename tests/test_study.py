@@ -68,8 +68,10 @@ def test_table1_has_a_row_per_model_and_the_command(study):
     text = (out / "table1.md").read_text()
     assert "Command: `simgen-train study " in text and "--iterations 2" in text and "Seed: 0" in text
     rows = [line for line in text.splitlines() if line.startswith("| ") and "(x1)" in line]
-    assert [row.split(" | ")[0][2:] for row in rows] == list(METHODS) * 2  # IoU AP, then centre-distance AP
-    assert "visible 3D" in text and "## Centre-distance AP" in text
+    assert [row.split(" | ")[0][2:] for row in rows] == list(METHODS) * 3  # IoU AP, centre-distance AP, decomposition
+    assert "visible 3D" in text and "## Centre-distance AP" in text and "## Where the 3D AP goes" in text
+    for row in rows[-len(METHODS):]:  # the decomposition names the costliest of the four errors
+        assert row.rstrip(" |").split(" | ")[-1].split(" (")[0] in ("centre", "size", "heading", "z")
     ap = list(csv.DictReader(open(out / "table1.csv")))
     boxes = {("single", "t"), ("early", "t"), ("late", "t"), ("late", "t-1"), ("late", "t-2")}
     assert {(r["model"], r["box"]) for r in ap} == boxes
@@ -191,3 +193,25 @@ def test_bad_input_is_one_line_and_exit_2(study, tmp_path, args, message):
     code, _, stderr = run_study(*(a.format(tmp=tmp_path, scenario=scenario, datasets=datasets) for a in args))
     assert code == 2, stderr
     assert stderr.count("\n") == 1 and message in stderr, stderr
+
+
+def test_seeds_and_the_frame_split(study, tmp_path):
+    """--seeds 0,1 with --split frame: a study per seed in OUT/seed_<seed>/ (their configs' seeds and split as
+    asked), Table 1 over the seeds with the ordering verdict, and Table 2 not run (no val clip to track)."""
+    scenario, configs, datasets, _, _ = study
+    out = tmp_path / "seeds"
+    code, _, stderr = run_study(scenario, "-o", out, "--datasets", datasets, "--configs", configs, "--iterations", 2,
+                                "--models", "late,single", "--seeds", "0,1", "--split", "frame", "--quiet")
+    assert code == 0, stderr[-2000:]
+    for seed in (0, 1):
+        config = load_checkpoint(out / f"seed_{seed}" / "late" / "checkpoint.pt").config
+        assert (config.seed, config.data.split) == (seed, "frame")
+        assert "Split: by frame" in (out / f"seed_{seed}" / "table1.md").read_text()
+        assert "Not run: with the frame split" in (out / f"seed_{seed}" / "table2.md").read_text()
+    table1 = (out / "table1.md").read_text()
+    assert "over training seeds 0, 1" in table1 and "Late Fusion > Single Frame: holds in" in table1
+    rows = [line for line in table1.splitlines() if line.startswith("| Late Fusion") or line.startswith("| Single Frame")]
+    assert len(rows) == 2 and all(" ± " in row for row in rows)
+    assert "Not run" in (out / "table2.md").read_text()
+    code, _, stderr = run_study(scenario, "-o", out, "--seeds", "0,0", "--quiet")
+    assert code == 2 and stderr.strip().endswith("give distinct seeds >= 0")

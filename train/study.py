@@ -39,6 +39,8 @@ from train.data import Sample
 from train.detections import ClipTracklets, clip_tracklets, write_tracklets
 from train.evaluate import ApRow, average_precisions, predict, visible_objects
 from train.fit import CHECKPOINT_NAME, fit
+from train.metrics.decomposition import Decomposition, decompose
+from train.metrics.detection import FrameBoxes
 from train.metrics.hota import Hota, centre_hota, hota
 from train.metrics.tracking import TrackingMetrics, evaluate_tracking
 from train.models.detector import Detector
@@ -97,6 +99,7 @@ class DetectorResult:
     fit_s: float
     eval_s: float
     rows: list[ApRow]  # AP of the boxes at t (and t-1, t-2 for late) on the val clips
+    decomposition: Decomposition  # where the 3D AP of the boxes at t goes
 
 
 @dataclass(frozen=True)
@@ -280,11 +283,14 @@ def detect_split(
 
 def detect_val(
     model: Detector, config: DetectorConfig, dataset: StudyDataset, options: StudyOptions
-) -> tuple[list[ApRow], ClipSet]:
-    """One inference pass over the val clips: AP rows (all boxes and visible ones), tracklets and ground truth."""
+) -> tuple[list[ApRow], Decomposition, ClipSet]:
+    """One inference pass over the val clips: AP rows (all boxes and visible ones), where the 3D AP of the
+    boxes at t goes (train.metrics.decomposition), tracklets and ground truth."""
     results = detect_split(model, config, dataset, "val", options)
     visible = visible_objects(simgen.datasets.open(dataset.path), [s for s, _ in results])
-    return average_precisions(results, visible), clip_set(results)
+    at_t = [FrameBoxes(d.boxes[:, -1], d.scores, s.boxes[s.box_mask[:, -1], -1]) for s, d in results]
+    decomposition = decompose(at_t, [v[s.box_mask[:, -1]] for v, (s, _) in zip(visible, results)])
+    return average_precisions(results, visible), decomposition, clip_set(results)
 
 
 def run_tracker(config: TrackerConfig, clips: ClipSet, rule: TrackletFilter | None) -> list[list[TrackedFrame]]:
@@ -332,8 +338,8 @@ def run_study(options: StudyOptions, scenario: Scenario) -> StudyResult:
     for model in options.models:
         detector, config, reused, fit_s = trained_model(options, model, dataset)
         began = time.perf_counter()
-        rows, detections = detect_val(detector, config, dataset, options)
-        detectors.append(DetectorResult(model, config, reused, fit_s, time.perf_counter() - began, rows))
+        rows, decomposition, detections = detect_val(detector, config, dataset, options)
+        detectors.append(DetectorResult(model, config, reused, fit_s, time.perf_counter() - began, rows, decomposition))
         if model == TRACKED_MODEL:
             on_train = clip_set(detect_split(detector, config, dataset, "train", options)) if config.data.split == "clip" else None
             tracked = (detections, on_train)
