@@ -54,6 +54,19 @@ def test_every_frame_round_trips(datasets, format):
                 assert frame.track_id is None and frame.discontinuity is None
 
 
+@pytest.mark.parametrize("format", FORMATS)
+def test_every_format_gives_each_frame_its_game_time(datasets, format):
+    """KITTI and OpenPCDet files keep no time: the reader takes it from the clip's start in the manifest."""
+    for frames in CLIPS:
+        for source in frames:
+            frame = datasets[format].frame(source.clip, source.index)
+            if format == "mcap":  # stamps are whole nanoseconds
+                assert frame.time_s == pytest.approx(source.time_s, abs=0.5e-9)
+                assert frame.label_time_s == pytest.approx(source.label_time_s, abs=0.5e-9)
+            else:
+                assert (frame.time_s, frame.label_time_s) == (source.time_s, source.label_time_s)
+
+
 def test_parquet_keeps_everything_the_simulator_made(datasets):
     source = CLIPS[1][3]
     frame = datasets["parquet"].frame(source.clip, source.index)

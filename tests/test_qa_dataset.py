@@ -63,7 +63,7 @@ def test_view_exports_ply_only_and_refuses_bad_frames(smoke_dataset, tmp_path):
 
 def test_verify_names_a_shard_with_a_flipped_byte(smoke_dataset, tmp_path):
     result = run_simgen("verify", smoke_dataset)
-    assert result.returncode == 0 and result.stdout.endswith(f"ok (4 files, {FRAMES} frames, {FRAMES * 25} boxes checked)\n")
+    assert result.returncode == 0 and result.stdout.endswith(f"ok (5 files, {FRAMES} frames, {FRAMES * 25} boxes checked)\n")
     copy = tmp_path / "copy"
     copy.mkdir()
     for path in smoke_dataset.rglob("*"):
