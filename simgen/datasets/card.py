@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import PurePath
 
 import pyarrow as pa
 
@@ -134,8 +135,21 @@ def _loading(manifest: Manifest) -> list[str]:
     return lines
 
 
+def _by_name(value: object, key: str = "") -> object:
+    """The scenario as the card shows it: a replay head's `file` (an absolute path once resolved) by its name
+    only, so that the card never shows the author's folders."""
+    if isinstance(value, dict):
+        return {k: _by_name(v, k) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_by_name(v) for v in value]
+    if key == "file" and isinstance(value, str) and PurePath(value).is_absolute():
+        return PurePath(value).name
+    return value
+
+
 def dataset_card(manifest: Manifest) -> str:
     scenario = manifest.scenario
+    shown = _by_name(scenario)
     totals = manifest.to_dict()["totals"]
     splits = {s: sum(c.frames for c in manifest.clips if c.split == s) for s in ("train", "val")}
     frames = f"{totals['frames']} ({splits['train']} / {splits['val']})"
@@ -202,8 +216,9 @@ def dataset_card(manifest: Manifest) -> str:
         "",
         "## Scenario (resolved)",
         "",
+        *(["Replay files by name (`manifest.json` has the paths they were read from).", ""] if shown != scenario else []),
         "```json",
-        json.dumps(scenario, indent=2, sort_keys=True),
+        json.dumps(shown, indent=2, sort_keys=True),
         "```",
         "",
         "## Versions",
