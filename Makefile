@@ -16,7 +16,8 @@ demo: setup
 	$(SIMGEN) generate scenarios/default.yaml -o $(DEMO_OUT) --overwrite
 	$(SIMGEN) view $(DEMO_OUT) --frames 0:100 -o $(DEMO_OUT)_view
 	@echo "demo: the dataset is in $(DEMO_OUT)/ (its README.md says what is there and how to read it);"
-	@echo "      pictures and a video of its first 10 s are in $(DEMO_OUT)_view/"
+	@echo "      pictures and a video of its first 10 s are in $(DEMO_OUT)_view/;"
+	@echo "      source $(VENV)/bin/activate puts simgen, duckdb and rerun on PATH for the README's examples"
 
 test: setup
 	$(VENV)/bin/python -m pytest -q -rs  # -rs: every skip listed with its reason (none expected)

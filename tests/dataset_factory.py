@@ -10,18 +10,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from simgen.datasets.frame import frame_times
 from simgen.labels.boxes import FrameLabels
 from simgen.labels.labelled_frame import LabelledFrame
 from simgen.render.frame import ScanFrame
 from simgen.scan.sensor_info import SensorInfo
 from simgen.vocab import BALL, BALL_INSTANCE_ID, GROUND, OFFICIAL, PLAYER
 
-FRAME_S = 0.1
+FRAME_RATE_HZ = 10.0
+FRAME_S = 1 / FRAME_RATE_HZ
+START_S = 12.0  # game time of every clip's frame 0
 SENSOR_M = np.array([0.0, -36.0, 4.0])
 
 
 def sensors() -> list[SensorInfo]:
-    return [SensorInfo(0, "mid100", "mid100-risley", (0.0, -36.0, 4.0, 0.0, -10.0, 90.0), 3, 150_000.0, 10.0, 1, 1.0)]
+    return [SensorInfo(0, "mid100", "mid100-risley", (0.0, -36.0, 4.0, 0.0, -10.0, 90.0), 3, 150_000.0, FRAME_RATE_HZ, 1, 1.0)]
 
 
 def _teams(humanoids: int) -> tuple[np.ndarray, np.ndarray]:
@@ -95,7 +98,7 @@ def make_clip(clip: str, frames: int, points: int = 500, humanoids: int = 25, se
         centres = _centres(rng, humanoids)
         scan = _scan(rng, count, centres, _teams(humanoids)[0])
         labels = _labels(rng, centres, scan.instance_id)
-        out.append(LabelledFrame(clip, index, 12.0 + index * FRAME_S, 12.05 + index * FRAME_S, scan, labels))
+        out.append(LabelledFrame(clip, index, *frame_times(START_S, FRAME_RATE_HZ, index), scan, labels))
     return out
 
 
@@ -111,5 +114,5 @@ def sample_clips() -> list[list[LabelledFrame]]:
     """Three small clips; the last has a frame with no points and one with no humanoid."""
     clips = [make_clip(f"clip_{i:04d}", 4, seed=i) for i in range(2)]
     empty = make_clip("clip_0002", 1, points=0, humanoids=3, seed=5) + make_clip("clip_0002", 1, humanoids=0, seed=6)
-    clips.append([LabelledFrame(f.clip, i, f.time_s, f.label_time_s, f.scan, f.labels) for i, f in enumerate(empty)])
+    clips.append([LabelledFrame(f.clip, i, *frame_times(START_S, FRAME_RATE_HZ, i), f.scan, f.labels) for i, f in enumerate(empty)])
     return clips

@@ -1,5 +1,6 @@
 """ROS 2 bags in MCAP: read back with both `mcap` (+ mcap-ros2-support) and `rosbags`, point by point
-against the Parquet dataset of the same frames; `simgen export` from Parquet and from KITTI."""
+against the Parquet dataset of the same frames; rosbag2's QoS profiles on every channel; `simgen export`
+from Parquet and from KITTI (the same stamps), and in livox_ros_driver2's layout."""
 
 from __future__ import annotations
 
@@ -7,16 +8,19 @@ import dataclasses
 
 import numpy as np
 import pytest
+import yaml
 from dataset_factory import make_clip, sensors, write_dataset
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rosbags.highlevel import AnyReader
+from rosbags.interfaces import QosDurability, QosHistory, QosReliability
 from rosbags.typesys import Stores, get_typestore
 from scipy.spatial.transform import Rotation
 
 import simgen.datasets
 from simgen.cli import main
-from simgen.datasets.ros2_bag import BOXES_TOPIC, POINT_DTYPE, TF_STATIC_TOPIC, points_topic
+from simgen.datasets.ros2_bag import (BOXES_TOPIC, LIVOX_LAYOUT, SIMGEN_LAYOUT, TF_STATIC_TOPIC, XYZI_LAYOUT, cloud_array,
+                                     points_topic)
 from simgen.qa.sensors import sensor_geometry
 from simgen.scan.sensor_info import SensorInfo
 
@@ -80,7 +84,7 @@ def test_every_point_and_box_matches_the_parquet_dataset(written, library):
             for info in SENSORS:
                 cloud = by_topic[points_topic(info.name)][index]
                 mine = want.sensor == info.sensor_id
-                got = np.frombuffer(bytes(cloud.data), POINT_DTYPE)
+                got = np.frombuffer(bytes(cloud.data), SIMGEN_LAYOUT.dtype)
                 assert cloud.header.frame_id == "pitch" and cloud.width == len(got) == mine.sum()
                 assert _ns(cloud.header.stamp) == round(want.time_s * 1e9)
                 np.testing.assert_array_equal(np.stack([got["x"], got["y"], got["z"]], 1), want.points_m[mine])
@@ -145,15 +149,104 @@ def test_export_from_parquet_equals_the_generated_bag(written, tmp_path):
     assert out.read_bytes() == (written / "mcap" / "clip_0001.mcap").read_bytes()
 
 
-def test_export_from_kitti_has_one_points_topic(tmp_path, capsys):
+def _channel_metadata(path) -> dict[str, dict[str, str]]:
+    with path.open("rb") as stream:
+        return {c.topic: c.metadata for c in make_reader(stream).get_summary().channels.values()}
+
+
+def _stamps(messages) -> dict[str, list[int]]:
+    """Header stamps (ns) by topic; a MarkerArray's are its first marker's."""
+    out: dict[str, list[int]] = {}
+    for topic, message in messages:
+        header = message.markers[0].header if topic == BOXES_TOPIC else message.transforms[0].header if topic == TF_STATIC_TOPIC \
+            else message.header
+        out.setdefault(topic, []).append(_ns(header.stamp))
+    return out
+
+
+def test_every_channel_carries_rosbag2s_offered_qos_profiles(written, tmp_path):
+    exported = tmp_path / "kitti.mcap"
+    write_dataset(tmp_path / "kitti", "kitti", [make_clip("clip_0000", 2)])
+    assert main(["export", str(tmp_path / "kitti"), "-o", str(exported)]) == 0
+    for path in (written / "mcap" / "clip_0000.mcap", exported):
+        metadata = _channel_metadata(path)
+        with AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
+            offered = {c.topic: c.ext.offered_qos_profiles for c in reader.connections}
+        assert set(offered) == set(metadata) and TF_STATIC_TOPIC in offered and BOXES_TOPIC in offered
+        for topic, (profile,) in offered.items():
+            (written_yaml,) = yaml.safe_load(metadata[topic]["offered_qos_profiles"])  # rosbag2's keys, one profile
+            assert set(written_yaml) == {"history", "depth", "reliability", "durability", "deadline", "lifespan", "liveliness",
+                                         "liveliness_lease_duration", "avoid_ros_namespace_conventions"}
+            assert profile.reliability == QosReliability.RELIABLE and profile.history == QosHistory.KEEP_LAST
+            # tf2 and RViz subscribe to /tf_static transient local: played back volatile, the poses would never arrive
+            latched = QosDurability.TRANSIENT_LOCAL if topic == TF_STATIC_TOPIC else QosDurability.VOLATILE
+            assert profile.durability == latched and profile.depth >= 1 and (topic != TF_STATIC_TOPIC or profile.depth == 1)
+
+
+def test_exports_of_one_clip_from_parquet_and_from_kitti_have_the_same_stamps(tmp_path, capsys):
+    clip = make_clip("clip_0000", 5)
+    for format in ("parquet", "kitti"):
+        write_dataset(tmp_path / format, format, [clip])
+        assert main(["export", str(tmp_path / format), "-o", str(tmp_path / f"{format}.mcap"), "--frames", "1:4"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("\n") == 3  # the two summaries and, for KITTI, one line on what it cannot carry
+    assert f"{tmp_path / 'kitti.mcap'}: kitti keeps no sensor, head, time or instance per point" in out
+    parquet, kitti = (_mcap_messages(tmp_path / f"{format}.mcap")[1] for format in ("parquet", "kitti"))
+    stamps = _stamps(parquet)
+    assert stamps[points_topic(sensors()[0].name)] == _stamps(kitti)["/simgen/points"]
+    assert stamps[BOXES_TOPIC] == _stamps(kitti)[BOXES_TOPIC] and stamps[TF_STATIC_TOPIC] == _stamps(kitti)[TF_STATIC_TOPIC]
+    want = [clip[i] for i in range(1, 4)]
+    assert stamps[BOXES_TOPIC] == [round(f.label_time_s * 1e9) for f in want]  # boxes at the label time
+    assert stamps[TF_STATIC_TOPIC] == [round(want[0].time_s * 1e9)]  # playback starts with the first frame
+    with (tmp_path / "kitti.mcap").open("rb") as stream:
+        log_times = [m.log_time for _, _, m in make_reader(stream).iter_messages(log_time_order=True)]
+    assert log_times[0] == round(want[0].time_s * 1e9) == min(log_times)
+
+
+def test_export_from_kitti_has_one_points_topic_of_what_kitti_keeps(tmp_path, capsys):
     write_dataset(tmp_path / "kitti", "kitti", [make_clip("clip_0000", 3)])
     out = tmp_path / "kitti.mcap"
     assert main(["export", str(tmp_path / "kitti"), "-o", str(out), "--frames", "1:3"]) == 0
-    assert capsys.readouterr().out.endswith(f"{out}: 2 frames of clip_0000, 5 messages (ROS 2, MCAP)\n")
+    assert capsys.readouterr().out.endswith(f"{out}: 2 frames of clip_0000, 5 messages (ROS 2, MCAP, xyzi points)\n")
     kitti = simgen.datasets.open(tmp_path / "kitti")
     clouds = [m for topic, m in _rosbags_messages(out) if topic == "/simgen/points"]
     for index, cloud in zip((1, 2), clouds):
-        got = np.frombuffer(bytes(cloud.data), POINT_DTYPE)
-        np.testing.assert_array_equal(np.stack([got["x"], got["y"], got["z"]], 1), kitti.frame("clip_0000", index).points_m)
+        got = cloud_array(cloud, XYZI_LAYOUT)
+        assert [f.name for f in cloud.fields] == ["x", "y", "z", "intensity"] and cloud.point_step == 16
+        want = kitti.frame("clip_0000", index)
+        np.testing.assert_array_equal(np.stack([got["x"], got["y"], got["z"]], 1), want.points_m)
+        np.testing.assert_array_equal(got["intensity"], want.intensity)
     assert main(["export", str(tmp_path / "kitti"), "-o", str(tmp_path)]) == 2
     assert capsys.readouterr().err == f"simgen export: error: {tmp_path}: is a directory, expected a file name\n"
+    assert main(["export", str(tmp_path / "kitti"), "-o", str(tmp_path / "livox.mcap"), "--ros2-layout", "livox"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--ros2-layout livox: a kitti dataset keeps no sensor" in err
+    assert not (tmp_path / "livox.mcap").exists()
+
+
+def test_the_livox_layout_is_the_drivers_26_byte_point_in_each_sensors_frame(written, tmp_path):
+    out = tmp_path / "livox.mcap"
+    assert main(["export", str(written / "parquet"), "-o", str(out), "--ros2-layout", "livox"]) == 0
+    parquet = simgen.datasets.open(written / "parquet")
+    by_topic: dict[str, list] = {}
+    for topic, message in _rosbags_messages(out):
+        by_topic.setdefault(topic, []).append(message)
+    (tf,) = by_topic[TF_STATIC_TOPIC]
+    poses = {t.child_frame_id: t.transform for t in tf.transforms}
+    for info in SENSORS:
+        transform = poses[info.name]
+        rotation = Rotation.from_quat([transform.rotation.x, transform.rotation.y, transform.rotation.z, transform.rotation.w])
+        origin = [transform.translation.x, transform.translation.y, transform.translation.z]
+        for index, cloud in enumerate(by_topic[points_topic(info.name)]):
+            # livox_ros_driver2's PointCloud2 (lddc.cpp): these fields, packed (LivoxPointXyzrtlt)
+            assert [(f.name, f.offset, f.datatype, f.count) for f in cloud.fields] == [
+                ("x", 0, 7, 1), ("y", 4, 7, 1), ("z", 8, 7, 1), ("intensity", 12, 7, 1), ("tag", 16, 2, 1), ("line", 17, 2, 1),
+                ("timestamp", 18, 8, 1)]
+            assert cloud.point_step == 26 and cloud.header.frame_id == info.name and not cloud.is_bigendian
+            got, want = cloud_array(cloud, LIVOX_LAYOUT), parquet.frame("clip_0000", index)
+            mine = want.sensor == info.sensor_id
+            in_pitch = rotation.apply(np.stack([got["x"], got["y"], got["z"]], 1).astype(np.float64)) + origin
+            np.testing.assert_allclose(in_pitch, want.points_m[mine], rtol=0, atol=2e-5)  # float32 metres within 70 m
+            np.testing.assert_array_equal(got["line"], want.head[mine])
+            np.testing.assert_array_equal(got["intensity"], want.intensity[mine])
+            assert np.all(np.abs(got["timestamp"] - (want.time_s + want.time_offset_s[mine].astype(np.float64)) * 1e9) <= 1)

@@ -61,6 +61,20 @@ def test_pandas_polars_and_pyarrow_read_every_table(root):
     assert [p.relative_to(root).as_posix() for p in (root / "sensors").rglob("*.parquet")] == ["sensors/part-0.parquet"]
 
 
+def test_duckdb_polars_and_pandas_find_every_columns_unit_in_the_units_table(root):
+    """They drop Parquet field metadata, so the units are rows they read, listed in the manifest and the card."""
+    want = {(name, f.name): (f.metadata[b"unit"].decode(), f.metadata[b"doc"].decode())
+            for name in ("frames", "points", "boxes", "sensors") for f in TABLES[name]}
+    rows = duckdb.sql(f"select table_name, column_name, unit, doc from '{root}/units/*.parquet'").fetchall()
+    assert len(rows) == len(want) and {(t, c): (u, d) for t, c, u, d in rows} == want
+    assert {(t, c): u for t, c, u, _ in rows}[("points", "time_offset_s")] == "s"
+    assert pl.read_parquet(f"{root}/units/*.parquet").filter(pl.col("table_name") == "boxes").height == len(TABLES["boxes"])
+    assert pd.read_parquet(root / "units").set_index(["table_name", "column_name"]).loc[("boxes", "yaw"), "unit"] == "rad"
+    listed = [f["path"] for f in json.loads((root / MANIFEST_NAME).read_text())["files"]]
+    assert "units/part-0.parquet" in listed
+    assert "`duckdb -c \"select * from 'units/*.parquet' where table_name = 'points'\"`" in (root / "README.md").read_text()
+
+
 def test_every_file_carries_its_clip_and_frame(root, tmp_path):
     """A file copied out of its folder still says which clip and frames it holds (Waymo v2's key columns)."""
     for frames in CLIPS:

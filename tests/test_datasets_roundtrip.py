@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from dataset_factory import sample_clips, write_dataset
+from dataset_factory import sample_clips, sensors, write_dataset
 
 import simgen.datasets
 from simgen.datasets import FORMATS
@@ -52,6 +52,31 @@ def test_every_frame_round_trips(datasets, format):
                 np.testing.assert_array_equal(frame.discontinuity, source.labels.discontinuity)
             else:
                 assert frame.track_id is None and frame.discontinuity is None
+
+
+@pytest.mark.parametrize("format", FORMATS)
+def test_every_format_gives_each_frame_its_game_time(datasets, format):
+    """KITTI and OpenPCDet files keep no time: the reader takes it from the clip's start in the manifest."""
+    for frames in CLIPS:
+        for source in frames:
+            frame = datasets[format].frame(source.clip, source.index)
+            if format == "mcap":  # stamps are whole nanoseconds
+                assert frame.time_s == pytest.approx(source.time_s, abs=0.5e-9)
+                assert frame.label_time_s == pytest.approx(source.label_time_s, abs=0.5e-9)
+            else:
+                assert (frame.time_s, frame.label_time_s) == (source.time_s, source.label_time_s)
+
+
+def test_the_card_names_replay_files_without_their_folders(tmp_path):
+    from simgen.datasets import finish_dataset, write_clip
+
+    pattern = str(tmp_path / "patterns" / "mine.npz")
+    scenario = {"name": "mine", "custom_sensors": [{"name": "mine", "heads": [{"pattern": "replay", "params": {"file": pattern}}]}]}
+    records = [write_clip(tmp_path / "d", "kitti", CLIPS[0], sensors(), 0)]
+    manifest = finish_dataset(tmp_path / "d", "kitti", records, sensors(), scenario, 1)
+    card = (tmp_path / "d" / "README.md").read_text()
+    assert '"file": "mine.npz"' in card and str(tmp_path) not in card
+    assert manifest.scenario["custom_sensors"][0]["heads"][0]["params"]["file"] == pattern  # the manifest keeps the path
 
 
 def test_parquet_keeps_everything_the_simulator_made(datasets):

@@ -13,6 +13,8 @@ import time
 
 import numpy as np
 import pytest
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
 
 from conftest import ROOT, local_ray_cluster, run_simgen
 import simgen.datasets as datasets
@@ -62,6 +64,24 @@ def test_other_formats_round_trip_to_the_parquet_frames(parquet_dataset, tmp_pat
             np.testing.assert_array_equal(a.intensity, b.intensity)
             np.testing.assert_allclose(a.boxes[:, :6], b.boxes[:, :6], rtol=0, atol=1e-6)
             np.testing.assert_allclose(np.cos(a.boxes[:, 6] - b.boxes[:, 6]), 1.0, atol=1e-6)
+            tolerance = 0.5e-9 if fmt == "mcap" else 0.0  # bag stamps are whole nanoseconds; the others' times are exact
+            assert a.time_s == pytest.approx(b.time_s, abs=tolerance) and a.label_time_s == pytest.approx(b.label_time_s, abs=tolerance)
+    if fmt == "kitti":  # the same clip exported from both: the same stamps
+        stamps = [_bag_stamps(tmp_path / f"{name}.mcap", dataset) for name, dataset in (("parquet", parquet_dataset[0]), ("kitti", tmp_path / fmt))]
+        assert stamps[0] == stamps[1] and len(stamps[0]) == 2 * 6 + 1
+
+
+def _bag_stamps(bag, dataset) -> list[tuple[str, int, int]]:
+    """(kind, log time, header stamp) of every message of `simgen export DATASET -o BAG`, in order."""
+    result = run_simgen("export", dataset, "-o", bag, "--clip", "clip_0001")
+    assert result.returncode == 0, result.stderr
+    out = []
+    with bag.open("rb") as stream:
+        for _, channel, message, decoded in make_reader(stream, decoder_factories=[DecoderFactory()]).iter_decoded_messages():
+            kind = channel.topic.rsplit("/", 1)[-1]  # points, boxes, tf_static
+            header = decoded.markers[0].header if kind == "boxes" else decoded.transforms[0].header if kind == "tf_static" else decoded.header
+            out.append((kind, message.log_time, header.stamp.sec * 1_000_000_000 + header.stamp.nanosec))
+    return out
 
 
 def test_workers_shards_and_seeds(parquet_dataset, tmp_path):

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import shutil
+import subprocess
+
 import cv2
 import numpy as np
 import open3d as o3d
@@ -63,13 +66,9 @@ def test_view_exports_ply_only_and_refuses_bad_frames(smoke_dataset, tmp_path):
 
 def test_verify_names_a_shard_with_a_flipped_byte(smoke_dataset, tmp_path):
     result = run_simgen("verify", smoke_dataset)
-    assert result.returncode == 0 and result.stdout.endswith(f"ok (4 files, {FRAMES} frames, {FRAMES * 25} boxes checked)\n")
+    assert result.returncode == 0 and result.stdout.endswith(f"ok (5 files, {FRAMES} frames, {FRAMES * 25} boxes checked)\n")
     copy = tmp_path / "copy"
-    copy.mkdir()
-    for path in smoke_dataset.rglob("*"):
-        if path.is_file():
-            (copy / path.relative_to(smoke_dataset)).parent.mkdir(parents=True, exist_ok=True)
-            (copy / path.relative_to(smoke_dataset)).write_bytes(path.read_bytes())
+    shutil.copytree(smoke_dataset, copy)
     shard = copy / "points" / "clip_0000" / "part-0.parquet"
     data = bytearray(shard.read_bytes())
     data[len(data) // 3] ^= 0x10
@@ -77,3 +76,19 @@ def test_verify_names_a_shard_with_a_flipped_byte(smoke_dataset, tmp_path):
     result = run_simgen("verify", copy)
     assert result.returncode == 1
     assert result.stdout.splitlines()[0] == f"{shard}: sha256 differs from manifest.json (corrupt or modified)"
+
+
+def test_the_report_and_the_card_name_no_folder_of_this_machine(smoke_dataset, tmp_path):
+    """A report or card attached to a ticket shows no one's disk: `grep -r` of the working directory (the
+    repository, where the shipped tolerances live), the dataset's folder and the report's finds nothing."""
+    copy, out = tmp_path / "copy", tmp_path / "qa"
+    shutil.copytree(smoke_dataset, copy)
+    (copy / "points" / "notes.txt").write_text("not data\n")  # so that the report lists a problem at a file
+    result = run_simgen("qa", copy, "-o", out)
+    assert result.returncode == 1, result.stderr
+    report = (out / "report.md").read_text()
+    assert "tolerances from simgen/qa/tolerances.yaml (shipped)" in report
+    assert "| copy/points/notes.txt |" in report and report.startswith("# Dataset QA: copy")
+    for folder in (ROOT, tmp_path):
+        grep = subprocess.run(["grep", "-rlF", str(folder), str(out), str(copy / "README.md")], capture_output=True, text=True)
+        assert grep.returncode == 1 and grep.stdout == "", grep.stdout

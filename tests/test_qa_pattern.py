@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import hashlib
 import re
+import subprocess
 
 import cv2
 import pytest
 import yaml
 import chromium
-from conftest import run_simgen
+from conftest import ROOT, run_simgen
 
 from simgen.cli import main
 from scan_patterns import HeadSpec
@@ -79,6 +81,18 @@ def test_tolerances_are_validated_and_an_edited_copy_is_used(tmp_path, capsys):
         stderr = capsys.readouterr().err
         assert stderr.count("\n") == 1 and message in stderr, stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_the_report_names_the_tolerances_without_their_folder(risley, tmp_path):
+    out, _ = risley
+    shipped = "tolerances from simgen/qa/tolerances.yaml (shipped)."
+    assert shipped in (out / "report.md").read_text() and shipped in (out / "index.html").read_text()
+    grep = subprocess.run(["grep", "-rlF", str(ROOT), str(out)], capture_output=True, text=True)  # $PWD of run_simgen
+    assert grep.returncode == 1 and grep.stdout == ""
+    mine = tmp_path / "mine.yaml"
+    mine.write_bytes(DEFAULT_PATH.read_bytes())
+    source = load_tolerances(mine).source
+    assert source == f"mine.yaml (sha256 {hashlib.sha256(mine.read_bytes()).hexdigest()[:12]})"
 
 
 def test_bad_input_is_one_line(tmp_path):

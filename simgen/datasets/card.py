@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import PurePath
 
 import pyarrow as pa
 
@@ -35,8 +36,9 @@ def _parquet_layout() -> list[str]:
         "(`<table>/<clip id>/part-0.parquet`) whose rows carry their keys `clip` and `frame` inside the file (so a",
         "file copied out of its folder still says what it holds), and `sensors/part-0.parquet` once per dataset.",
         "`points` row groups hold 10 whole frames (group g: frames 10 g .. 10 g + 9); `frames` and `boxes` row groups",
-        "hold whole frames. Units and frames",
-        "are also in each field's metadata (`doc`, `unit`).",
+        "hold whole frames. Units and meanings are in each field's metadata (`unit`, `doc`), which only pyarrow shows,",
+        "and, for duckdb, polars and pandas, as rows of the `units` table (`units/part-0.parquet`, once per dataset):",
+        "`duckdb -c \"select * from 'units/*.parquet' where table_name = 'points'\"`.",
     ]
     for name, schema in TABLES.items():
         lines += ["", f"### `{name}`", "", *_table(["column", "type", "unit", "meaning"], _schema_rows(schema))]
@@ -125,13 +127,29 @@ def _loading(manifest: Manifest) -> list[str]:
             "",
             "```sh",
             "duckdb -c \"select clip, frame, count(*) from 'points/**/*.parquet' group by all order by all\"",
+            "duckdb -c \"select column_name, unit, doc from 'units/*.parquet' where table_name = 'boxes'\"",
             "```",
+            "",
+            "(`duckdb` is the `duckdb-cli` package, on the PATH of simgen's `.venv`.)",
         ]
     return lines
 
 
+def _by_name(value: object, key: str = "") -> object:
+    """The scenario as the card shows it: a replay head's `file` (an absolute path once resolved) by its name
+    only, so that the card never shows the author's folders."""
+    if isinstance(value, dict):
+        return {k: _by_name(v, k) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_by_name(v) for v in value]
+    if key == "file" and isinstance(value, str) and PurePath(value).is_absolute():
+        return PurePath(value).name
+    return value
+
+
 def dataset_card(manifest: Manifest) -> str:
     scenario = manifest.scenario
+    shown = _by_name(scenario)
     totals = manifest.to_dict()["totals"]
     splits = {s: sum(c.frames for c in manifest.clips if c.split == s) for s in ("train", "val")}
     frames = f"{totals['frames']} ({splits['train']} / {splits['val']})"
@@ -160,6 +178,11 @@ def dataset_card(manifest: Manifest) -> str:
         "## Frames, units, classes",
         "",
         f"- Coordinates: {PITCH_FRAME}. Times in seconds, angles in radians unless a name ends in `_deg`.",
+        "- Time: game time (seconds since kick-off) in every format and tool: a frame's time is its sweep's start, its",
+        "  boxes describe the middle of the sweep (its label time), a point's time is its shot's (Parquet",
+        "  `points.time_offset_s` after the frame's start, MCAP `timestamp` / `offset_time`). KITTI and OpenPCDet files",
+        "  keep no time: each clip's `start_s` in `manifest.json` gives frame k's, `start_s + k / frame_rate_hz`",
+        "  (`simgen.datasets.open` fills `time_s` and `label_time_s`); their points keep no time of their own.",
         f"- Boxes: 7 numbers, {BOX_CONVENTION}.",
         f"- Classes: `{PLAYER_CLASS}` for players (both teams), `{OFFICIAL_CLASS}` for the referee and linesmen; the ball is not",
         f"  labelled (in Parquet its points have instance id {BALL_INSTANCE_ID} and semantic class `ball`).",
@@ -193,8 +216,9 @@ def dataset_card(manifest: Manifest) -> str:
         "",
         "## Scenario (resolved)",
         "",
+        *(["Replay files by name (`manifest.json` has the paths they were read from).", ""] if shown != scenario else []),
         "```json",
-        json.dumps(scenario, indent=2, sort_keys=True),
+        json.dumps(shown, indent=2, sort_keys=True),
         "```",
         "",
         "## Versions",

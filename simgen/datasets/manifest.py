@@ -43,6 +43,7 @@ class ClipEntry:
     points: int
     boxes: int
     split: str  # train or val
+    start_s: float  # game time of frame 0's sweep start: frame k's is start_s + k / frame_rate_hz
 
 
 @dataclass(frozen=True)
@@ -113,6 +114,7 @@ class ClipItem(_Strict):
     points: Count
     boxes: Count
     split: Literal["train", "val"]
+    start_s: Number
 
 
 class SensorItem(_Strict):

@@ -1,8 +1,8 @@
 """The Parquet format (the default): one table per component, a file per clip, zstd.
 
 `<table>/<clip id>/part-0.parquet` for `frames`, `points` and `boxes` (every row holds its `clip`
-and `frame`), `sensors/part-0.parquet` once per dataset (`simgen.datasets.schema`). `points` has row groups of
-`POINTS_FRAMES_PER_GROUP` frames (row group g holds frames 10 g .. 10 g + 9; a writer keeps about 10 KiB
+and `frame`), `sensors/part-0.parquet` and `units/part-0.parquet` once per dataset
+(`simgen.datasets.schema`). `points` has row groups of `POINTS_FRAMES_PER_GROUP` frames (row group g holds frames 10 g .. 10 g + 9; a writer keeps about 10 KiB
 of metadata per row group, so a group per frame would grow a whole match's writer by 0.5 GiB);
 `frames` and `boxes` have row groups of whole frames. Writer options are fixed and no time stamp is written, so
 the same frames give the same bytes. Pages carry CRC checksums, checked on read: a second guard
@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from simgen.atomic import atomic_path
 from simgen.datasets.frame import Frame, class_names
 from simgen.datasets.records import FileRecord, record_file
-from simgen.datasets.schema import BOX_FIELDS, CLIP_TABLES, METADATA_KEY, SCHEMA_VERSION, TABLES, with_table_metadata
+from simgen.datasets.schema import BOX_FIELDS, CLIP_TABLES, METADATA_KEY, SCHEMA_VERSION, TABLES, units_rows, with_table_metadata
 from simgen.datasets.verify import DatasetFiles
 from simgen.errors import UserError
 from simgen.vocab import NUM_KEYPOINTS
@@ -41,6 +41,7 @@ FRAMES_PER_GROUP = 1000  # row groups of `frames` and `boxes`
 POINTS_FRAMES_PER_GROUP = 10  # row groups of `points`
 OPEN_CLIPS = 4  # clips whose frames and boxes tables the reader keeps
 SENSORS_PATH = "sensors/part-0.parquet"
+UNITS_PATH = "units/part-0.parquet"
 
 
 def table_path(table: str, clip: str) -> str:
@@ -280,13 +281,21 @@ def labelled_frames(root: Path, clip: str) -> Iterator[LabelledFrame]:
         yield LabelledFrame(clip, row["frame"], row["time_s"], row["label_time_s"], scan, labels)
 
 
+def _write_dataset_table(root: Path, relative: str, table: pa.Table) -> FileRecord:
+    (root / relative).parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(root / relative) as tmp, table_writer(tmp, relative.split("/", 1)[0]) as writer:
+        writer.write_table(table, row_group_size=max(len(table), 1))
+    return record_file(root, relative, len(table))
+
+
 def write_parquet_sensors(root: Path, sensors: Sequence[SensorInfo]) -> FileRecord:
     """The dataset's one `sensors` table."""
-    table = sensors_table(sorted(sensors, key=lambda s: s.sensor_id))
-    (root / SENSORS_PATH).parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(root / SENSORS_PATH) as tmp, table_writer(tmp, "sensors") as writer:
-        writer.write_table(table, row_group_size=max(len(table), 1))
-    return record_file(root, SENSORS_PATH, len(table))
+    return _write_dataset_table(root, SENSORS_PATH, sensors_table(sorted(sensors, key=lambda s: s.sensor_id)))
+
+
+def write_parquet_units(root: Path) -> FileRecord:
+    """The dataset's one `units` table: every column's unit and meaning, as rows."""
+    return _write_dataset_table(root, UNITS_PATH, _table("units", units_rows()))
 
 
 def open_table(path: Path, name: str) -> pq.ParquetFile:

@@ -6,15 +6,16 @@ time it is read (`verify=False` skips that; `Dataset.verify()` checks them all a
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterator
 from pathlib import Path
 
 from simgen.datasets import kitti, openpcdet, ros2_bag
-from simgen.datasets.frame import Frame
+from simgen.datasets.frame import Frame, frame_times
 from simgen.datasets.kitti import KittiReader
 from simgen.datasets.manifest import MANIFEST_NAME, ClipEntry, Manifest, read_manifest
 from simgen.datasets.openpcdet import OpenPCDetReader
-from simgen.datasets.parquet import SENSORS_PATH, ParquetReader, table_path
+from simgen.datasets.parquet import SENSORS_PATH, UNITS_PATH, ParquetReader, table_path
 from simgen.datasets.ros2_bag import BagReader
 from simgen.datasets.schema import CLIP_TABLES
 from simgen.datasets.verify import DatasetFiles
@@ -44,7 +45,7 @@ def check_files_match_clips(root: Path, manifest: Manifest) -> None:
     listed = {f.path: f for f in manifest.files}
     expected = set(IMAGE_SETS) if manifest.format in ("kitti", "openpcdet") else set()
     if manifest.format == "parquet":
-        expected.add(SENSORS_PATH)
+        expected |= {SENSORS_PATH, UNITS_PATH}
     if manifest.format == "kitti" and manifest.scenario.get("dataset", {}).get("kitti_images"):
         expected |= {kitti.image_path(c.clip_index, i) for c in manifest.clips for i in range(c.frames)}
     where = root / MANIFEST_NAME
@@ -115,7 +116,12 @@ class Dataset:
         frames = self.num_frames(clip)
         if not 0 <= index < frames:
             raise UserError(f"{self.root}: clip {clip} has frames 0-{frames - 1}, not {index}")
-        return self._reader.frame(clip, index)
+        frame = self._reader.frame(clip, index)
+        if frame.time_s is None:  # KITTI and OpenPCDet files keep no time: the manifest's clock
+            rate_hz = float(self.manifest.sensors[0]["frame_rate_hz"])
+            time_s, label_time_s = frame_times(self._entry(clip).start_s, rate_hz, index)
+            frame = dataclasses.replace(frame, time_s=time_s, label_time_s=label_time_s)
+        return frame
 
     def sequence(self, clip: str, index: int, length: int = 3) -> list[Frame]:
         """`length` consecutive frames of `clip` ending at `index`, oldest first."""

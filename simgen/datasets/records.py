@@ -36,6 +36,7 @@ class ClipRecord:
     frames: int
     points: int
     boxes: int
+    start_s: float  # game time of the first written frame's sweep start (frame 0's for a whole clip)
     files: tuple[FileRecord, ...]
 
     def to_dict(self) -> dict:

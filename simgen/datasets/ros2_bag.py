@@ -1,24 +1,27 @@
 """A clip as a ROS 2 bag in MCAP (`mcap` + `mcap-ros2-support`, no ROS install), as Livox users record theirs.
 
-Topics (CDR-encoded, ROS 2 Humble message definitions):
+Topics (CDR-encoded, ROS 2 Humble message definitions), each channel with rosbag2's
+`offered_qos_profiles` metadata (`QOS_PROFILES`), which `ros2 bag play` offers again:
 
 - `/simgen/<sensor name>/points`, `sensor_msgs/msg/PointCloud2`, one per sensor and frame (empty
-  frames too, so the k-th message of a topic is frame k). Points in the `pitch` frame (metres),
-  laid out as livox_ros_driver2 publishes its PointCloud2 (packed, little-endian): `x y z` float32
-  at 0, 4, 8, `intensity` float32 at 12 (reflectivity 0-255), `tag` uint8 at 16 (0: simgen has no
-  return flags), `line` uint8 at 17 (the head), `timestamp` float64 at 18 (the shot's time, ns, on
-  the stamps' clock); then simgen's own `offset_time` uint32 at 26 (ns since the header stamp, as
-  Livox's CustomMsg) and `instance_id` int32 at 30 (track id, 1000 the ball, -1 nothing). A dataset
-  that keeps no sensor per point (KITTI, OpenPCDet) has one topic, `/simgen/points`.
+  frames too, so the k-th message of a topic is frame k), in one of three `PointLayout`s:
+  `SIMGEN_LAYOUT` (the default): the `pitch` frame (metres), livox_ros_driver2's packed 26-byte point
+  (`x y z` float32 at 0, 4, 8, `intensity` float32 at 12 (reflectivity 0-255), `tag` uint8 at 16 (0:
+  simgen has no return flags), `line` uint8 at 17 (the head), `timestamp` float64 at 18 (the shot's
+  time, ns, on the stamps' clock)), then simgen's own `offset_time` uint32 at 26 (ns since the header
+  stamp, as Livox's CustomMsg) and `instance_id` int32 at 30 (track id, 1000 the ball, -1 nothing);
+  `LIVOX_LAYOUT`: exactly the driver's 26 bytes, in the sensor's own frame (`frame_id` its name, posed
+  on `/tf_static`); `XYZI_LAYOUT`: x, y, z, intensity in the pitch frame on one topic,
+  `/simgen/points`, for datasets that keep no sensor, head, time or instance per point (KITTI, OpenPCDet).
 - `/simgen/boxes`, `visualization_msgs/msg/MarkerArray` per frame: DELETEALL, then per humanoid a
   CUBE (namespace `boxes`, marker id = track id, `text` the class, which RViz does not draw on a
   cube) and a TEXT_VIEW_FACING (namespace `track_ids`) with the track id; a humanoid the engine placed
   for a restart (`discontinuity`) has one more TEXT_VIEW_FACING, `placed`, in namespace `discontinuity`.
-- `/tf_static`, `tf2_msgs/msg/TFMessage` once: `pitch` -> each sensor's name, its pose.
+- `/tf_static`, `tf2_msgs/msg/TFMessage` once, at the first frame's stamp: `pitch` -> each sensor's name, its pose.
 
-Stamps are game time (seconds since kick-off of the captured clip, not the Unix epoch): a cloud's
-header stamp is the frame's sweep start, the boxes' the label time. `BagWriter` takes frames one at
-a time and writes each as it comes.
+Stamps are game time (seconds since kick-off of the captured clip, not the Unix epoch), the same in
+every format: a cloud's header stamp is the frame's sweep start (`Frame.time_s`), the boxes' the label
+time (`Frame.label_time_s`). `BagWriter` takes frames one at a time and writes each as it comes.
 """
 
 from __future__ import annotations
@@ -33,11 +36,16 @@ from typing import TYPE_CHECKING, BinaryIO
 
 import numpy as np
 from mcap.reader import make_reader
+from mcap.well_known import SchemaEncoding
+from mcap.writer import Writer
+from mcap_ros2._dynamic import serialize_dynamic  # mcap-ros2-support's CDR encoder (its Writer cannot give channels metadata)
 from mcap_ros2.decoder import DecoderFactory
-from mcap_ros2.writer import Writer
 from numpy.typing import NDArray
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+from rosbags.rosbag2.metadata import dump_qos_v8
 from rosbags.typesys import Stores, get_typestore
 
+from simgen import __version__
 from simgen.atomic import atomic_path
 from simgen.datasets.frame import Frame, class_names
 from simgen.datasets.records import FileRecord, record_file
@@ -54,6 +62,7 @@ ALL_POINTS_TOPIC = "/simgen/points"
 BOXES_TOPIC = "/simgen/boxes"
 TF_STATIC_TOPIC = "/tf_static"
 FLOAT32, FLOAT64, UINT8, UINT32, INT32 = 7, 8, 2, 6, 5  # sensor_msgs/PointField datatypes
+DATATYPE_NAMES = {FLOAT32: "FLOAT32", FLOAT64: "FLOAT64", UINT8: "UINT8", UINT32: "UINT32", INT32: "INT32"}
 #: (name, offset, PointField datatype, numpy type): livox_ros_driver2's 26-byte point, then simgen's fields.
 POINT_FIELDS = (
     ("x", 0, FLOAT32, "<f4"),
@@ -66,16 +75,58 @@ POINT_FIELDS = (
     ("offset_time", 26, UINT32, "<u4"),
     ("instance_id", 30, INT32, "<i4"),
 )
-POINT_STEP = 34
-POINT_DTYPE = np.dtype(
-    {"names": [f[0] for f in POINT_FIELDS], "formats": [f[3] for f in POINT_FIELDS],
-     "offsets": [f[1] for f in POINT_FIELDS], "itemsize": POINT_STEP}
-)
+
+
+@dataclass(frozen=True)
+class PointLayout:
+    """A PointCloud2 point: the first `fields` of POINT_FIELDS, packed into `step` bytes."""
+
+    name: str
+    fields: int
+    step: int
+    per_sensor: bool  # a topic per sensor (else one, ALL_POINTS_TOPIC)
+    sensor_frame: bool  # points in the sensor's frame (else the pitch frame)
+
+    @property
+    def point_fields(self) -> tuple[tuple[str, int, int, str], ...]:
+        return POINT_FIELDS[: self.fields]
+
+    @property
+    def dtype(self) -> np.dtype:
+        fields = self.point_fields
+        return np.dtype({"names": [f[0] for f in fields], "formats": [f[3] for f in fields],
+                         "offsets": [f[1] for f in fields], "itemsize": self.step})
+
+
+SIMGEN_LAYOUT = PointLayout("simgen", 9, 34, per_sensor=True, sensor_frame=False)
+LIVOX_LAYOUT = PointLayout("livox", 7, 26, per_sensor=True, sensor_frame=True)  # livox_ros_driver2's LivoxPointXyzrtlt
+XYZI_LAYOUT = PointLayout("xyzi", 4, 16, per_sensor=False, sensor_frame=False)
+LAYOUTS = {layout.name: layout for layout in (SIMGEN_LAYOUT, LIVOX_LAYOUT, XYZI_LAYOUT)}
 BOX_COLOURS = {OFFICIAL_CLASS: (1.0, 0.9, 0.0, 0.6)}  # RGBA; players white
 PLAYER_COLOUR = (1.0, 1.0, 1.0, 0.6)
 TEXT_HEIGHT_M = 0.5
 DISCONTINUITY_NAMESPACE = "discontinuity"  # markers of boxes whose humanoid the engine placed
 SCHEMAS = ("sensor_msgs/msg/PointCloud2", "visualization_msgs/msg/MarkerArray", "tf2_msgs/msg/TFMessage")
+
+
+def _qos(depth: int, durability: QosDurability) -> Qos:
+    """A reliable keep-last profile; deadline, lifespan and lease 0 (rmw's default: none)."""
+    never = QosTime(0, 0)
+    return Qos(QosHistory.KEEP_LAST, depth, QosReliability.RELIABLE, durability, never, never, QosLiveliness.AUTOMATIC, never, False)
+
+
+#: What each topic's publisher offers: points as livox_ros_driver2 publishes a lidar's PointCloud2
+#: (rclcpp's default reliable, volatile, keep last 64), boxes as an rclcpp publisher of depth 10, and the
+#: static transforms as tf2_ros's StaticTransformBroadcaster (transient local, keep last 1), so that RViz
+#: and tf2, which subscribe to /tf_static transient local, get them from `ros2 bag play`.
+QOS_PROFILES = {"points": _qos(64, QosDurability.VOLATILE), BOXES_TOPIC: _qos(10, QosDurability.VOLATILE),
+                TF_STATIC_TOPIC: _qos(1, QosDurability.TRANSIENT_LOCAL)}
+
+
+def offered_qos_profiles(topic: str) -> str:
+    """The channel metadata value rosbag2 writes for `topic`: its publishers' profiles as YAML (the
+    integer enums of rosbag2 before metadata version 9, which every later rosbag2 still reads)."""
+    return dump_qos_v8([QOS_PROFILES.get(topic, QOS_PROFILES["points"])])
 
 
 def points_topic(sensor_name: str) -> str:
@@ -98,41 +149,51 @@ def _quaternion_xyzw(yaw_rad: float) -> dict:
     return {"x": 0.0, "y": 0.0, "z": float(np.sin(yaw_rad / 2)), "w": float(np.cos(yaw_rad / 2))}
 
 
-def sensor_quaternion(pose: Sequence[float]) -> NDArray[np.float64]:
-    """(4,) x, y, z, w of a sensor pose (x, y, z metres, roll, pitch, yaw degrees): sensor frame -> pitch frame."""
-    from scipy.spatial.transform import Rotation  # scipy.spatial and the scan stage are slow to import; only bags need them
-
-    from simgen.scan.sensor_rig import sensor_rotation
+def sensor_rotation_matrix(pose: Sequence[float]) -> NDArray[np.float64]:
+    """(3, 3) sensor frame -> pitch frame of a sensor pose (x, y, z metres, roll, pitch, yaw degrees)."""
+    from simgen.scan.sensor_rig import sensor_rotation  # the scan stage is slow to import; only bags need it
     from simgen.scenario import SensorPose
 
     x, y, z, roll, pitch, yaw = pose
-    return Rotation.from_matrix(sensor_rotation(SensorPose(x=x, y=y, z=z, roll=roll, pitch=pitch, yaw=yaw))).as_quat()
+    return sensor_rotation(SensorPose(x=x, y=y, z=z, roll=roll, pitch=pitch, yaw=yaw))
 
 
-def cloud_points(frame: Frame, mask: NDArray[np.bool_] | slice, stamp_ns: int) -> NDArray:
-    """The frame's points (those of `mask`) as a structured array of POINT_DTYPE."""
+def sensor_quaternion(pose: Sequence[float]) -> NDArray[np.float64]:
+    """(4,) x, y, z, w of a sensor pose (x, y, z metres, roll, pitch, yaw degrees): sensor frame -> pitch frame."""
+    from scipy.spatial.transform import Rotation  # scipy.spatial is slow to import; only bags need it
+
+    return Rotation.from_matrix(sensor_rotation_matrix(pose)).as_quat()
+
+
+def cloud_points(frame: Frame, mask: NDArray[np.bool_] | slice, stamp_ns: int, layout: PointLayout = SIMGEN_LAYOUT,
+                 pose: Sequence[float] | None = None) -> NDArray:
+    """The frame's points (those of `mask`) as a structured array of `layout`; `pose`: the sensor's,
+    for a layout in the sensor frame."""
     points = np.asarray(frame.points_m, np.float32)[mask]
-    out = np.zeros(len(points), POINT_DTYPE)
+    if layout.sensor_frame:
+        points = ((points.astype(np.float64) - np.asarray(pose[:3], np.float64)) @ sensor_rotation_matrix(pose)).astype(np.float32)
+    out = np.zeros(len(points), layout.dtype)
     out["x"], out["y"], out["z"] = points[:, 0], points[:, 1], points[:, 2]
     out["intensity"] = np.asarray(frame.intensity)[mask]
-    if frame.head is not None:
+    if layout.fields > 4:
         out["line"] = frame.head[mask]
-    if frame.time_offset_s is not None:
-        out["offset_time"] = np.rint(frame.time_offset_s[mask].astype(np.float64) * 1e9)
-    out["timestamp"] = stamp_ns + out["offset_time"].astype(np.float64)
-    out["instance_id"] = frame.instance_id[mask] if frame.instance_id is not None else -1
+        offset_ns = np.rint(frame.time_offset_s[mask].astype(np.float64) * 1e9)
+        out["timestamp"] = stamp_ns + offset_ns
+    if layout.fields > 7:
+        out["offset_time"] = offset_ns
+        out["instance_id"] = frame.instance_id[mask]
     return out
 
 
-def cloud_message(points: NDArray, stamp_ns: int) -> dict:
+def cloud_message(points: NDArray, stamp_ns: int, layout: PointLayout = SIMGEN_LAYOUT, frame_id: str = WORLD_FRAME) -> dict:
     return {
-        "header": _header(stamp_ns),
+        "header": _header(stamp_ns, frame_id),
         "height": 1,
         "width": len(points),
-        "fields": [{"name": name, "offset": offset, "datatype": kind, "count": 1} for name, offset, kind, _ in POINT_FIELDS],
+        "fields": [{"name": name, "offset": offset, "datatype": kind, "count": 1} for name, offset, kind, _ in layout.point_fields],
         "is_bigendian": False,
-        "point_step": POINT_STEP,
-        "row_step": POINT_STEP * len(points),
+        "point_step": layout.step,
+        "row_step": layout.step * len(points),
         "data": points.tobytes(),
         "is_dense": True,
     }
@@ -168,13 +229,13 @@ def markers_message(frame: Frame, stamp_ns: int) -> dict:
     return {"markers": markers}
 
 
-def tf_static_message(sensors: Sequence[dict]) -> dict:
+def tf_static_message(sensors: Sequence[dict], stamp_ns: int) -> dict:
     transforms = []
     for sensor in sensors:
         qx, qy, qz, qw = sensor_quaternion(sensor["pose"]).tolist()
         x, y, z = (float(v) for v in sensor["pose"][:3])
         transforms.append({
-            "header": _header(0), "child_frame_id": sensor["name"],
+            "header": _header(stamp_ns), "child_frame_id": sensor["name"],
             "transform": {"translation": {"x": x, "y": y, "z": z}, "rotation": {"x": qx, "y": qy, "z": qz, "w": qw}},
         })
     return {"transforms": transforms}
@@ -183,38 +244,55 @@ def tf_static_message(sensors: Sequence[dict]) -> dict:
 class BagWriter:
     """A ROS 2 MCAP bag written frame by frame: `add(frame)` for each, then `finish()`.
 
-    `sensors` are manifest `sensors` entries (name, pose, frame_rate_hz, ...); `per_sensor` False
-    puts every point on one topic (for frames that keep no sensor per point).
+    `sensors` are manifest `sensors` entries (name, pose, frame_rate_hz, ...); `layout` the points'
+    PointCloud2 layout (XYZI_LAYOUT puts every point on one topic, for frames that keep no sensor per point).
+    Every frame needs its `time_s` and `label_time_s`.
     """
 
-    def __init__(self, stream: BinaryIO, sensors: Sequence[dict], per_sensor: bool = True):
+    def __init__(self, stream: BinaryIO, sensors: Sequence[dict], layout: PointLayout = SIMGEN_LAYOUT):
         typestore = get_typestore(Stores.ROS2_HUMBLE)
         self.writer = Writer(stream)
-        self.schemas = {name: self.writer.register_msgdef(name, typestore.generate_msgdef(name, ros_version=2)[0]) for name in SCHEMAS}
+        self.writer.start(profile="ros2", library=f"simgen {__version__}")
+        self.schemas, self.encoders, self.channels = {}, {}, {}
+        for name in SCHEMAS:
+            text = typestore.generate_msgdef(name, ros_version=2)[0]
+            self.schemas[name] = self.writer.register_schema(name, SchemaEncoding.ROS2, text.encode())
+            self.encoders[name] = serialize_dynamic(name, text)[name]
         self.sensors = sorted(sensors, key=lambda s: s["sensor_id"])
-        self.per_sensor = per_sensor
-        self.frame_s = 1.0 / float(self.sensors[0]["frame_rate_hz"]) if self.sensors else 0.1
+        self.layout = layout
         self.messages = 0
-        self._write(TF_STATIC_TOPIC, "tf2_msgs/msg/TFMessage", tf_static_message(self.sensors), 0)
 
     def _write(self, topic: str, schema: str, message: dict, stamp_ns: int) -> None:
-        self.writer.write_message(topic, self.schemas[schema], message, log_time=stamp_ns, publish_time=stamp_ns, sequence=self.messages)
+        if topic not in self.channels:
+            self.channels[topic] = self.writer.register_channel(
+                topic, "cdr", self.schemas[schema], {"offered_qos_profiles": offered_qos_profiles(topic)}
+            )
+        data = self.encoders[schema](message)
+        self.writer.add_message(self.channels[topic], log_time=stamp_ns, data=data, publish_time=stamp_ns, sequence=self.messages)
         self.messages += 1
 
+    def _write_tf_static(self, stamp_ns: int) -> None:
+        self._write(TF_STATIC_TOPIC, SCHEMAS[2], tf_static_message(self.sensors, stamp_ns), stamp_ns)
+
     def add(self, frame: Frame) -> None:
-        start_s = frame.time_s if frame.time_s is not None else frame.index * self.frame_s
-        stamp_ns = nanoseconds(start_s)
-        if self.per_sensor:
+        stamp_ns = nanoseconds(frame.time_s)
+        if not self.messages:  # the static transforms at the first frame's stamp: playback starts there
+            self._write_tf_static(stamp_ns)
+        if self.layout.per_sensor:
             sensor = np.asarray(frame.sensor)
             for info in self.sensors:
-                points = cloud_points(frame, sensor == info["sensor_id"], stamp_ns)
-                self._write(points_topic(info["name"]), SCHEMAS[0], cloud_message(points, stamp_ns), stamp_ns)
+                frame_id = info["name"] if self.layout.sensor_frame else WORLD_FRAME
+                points = cloud_points(frame, sensor == info["sensor_id"], stamp_ns, self.layout, info["pose"])
+                self._write(points_topic(info["name"]), SCHEMAS[0], cloud_message(points, stamp_ns, self.layout, frame_id), stamp_ns)
         else:
-            self._write(ALL_POINTS_TOPIC, SCHEMAS[0], cloud_message(cloud_points(frame, slice(None), stamp_ns), stamp_ns), stamp_ns)
-        label_ns = nanoseconds(frame.label_time_s if frame.label_time_s is not None else start_s + self.frame_s / 2)
+            points = cloud_points(frame, slice(None), stamp_ns, self.layout)
+            self._write(ALL_POINTS_TOPIC, SCHEMAS[0], cloud_message(points, stamp_ns, self.layout), stamp_ns)
+        label_ns = nanoseconds(frame.label_time_s)
         self._write(BOXES_TOPIC, SCHEMAS[1], markers_message(frame, label_ns), label_ns)
 
     def finish(self) -> None:
+        if not self.messages:
+            self._write_tf_static(0)
         self.writer.finish()
 
 
@@ -235,11 +313,11 @@ class BagSummary:
     frames: int
 
 
-def write_bag(path: Path, frames: Iterable[Frame], sensors: Sequence[dict], per_sensor: bool = True) -> BagSummary:
+def write_bag(path: Path, frames: Iterable[Frame], sensors: Sequence[dict], layout: PointLayout = SIMGEN_LAYOUT) -> BagSummary:
     """Write `frames` (an iterable of `Frame`, consumed one at a time) to `path` atomically."""
     count = 0
     with atomic_path(path) as tmp, tmp.open("wb") as stream:
-        bag = BagWriter(stream, sensors, per_sensor)
+        bag = BagWriter(stream, sensors, layout)
         for frame in frames:
             bag.add(frame)
             count += 1
@@ -288,11 +366,12 @@ def read_bag(stream: BinaryIO) -> dict[str, list]:
     return topics
 
 
-def cloud_array(message) -> NDArray:
-    """A PointCloud2 message of POINT_DTYPE layout as a structured array."""
-    if message.point_step != POINT_STEP or [(f.name, f.offset, f.datatype) for f in message.fields] != [f[:3] for f in POINT_FIELDS]:
-        raise ValueError("not simgen's PointCloud2 layout")
-    return np.frombuffer(bytes(message.data), POINT_DTYPE, count=message.width)
+def cloud_array(message, layout: PointLayout = SIMGEN_LAYOUT) -> NDArray:
+    """A PointCloud2 message of `layout` as a structured array."""
+    fields = [(f.name, f.offset, f.datatype) for f in message.fields]
+    if message.point_step != layout.step or fields != [f[:3] for f in layout.point_fields]:
+        raise ValueError(f"not the {layout.name} PointCloud2 layout")
+    return np.frombuffer(bytes(message.data), layout.dtype, count=message.width)
 
 
 def boxes_of(message) -> tuple[NDArray[np.float32], NDArray[np.str_], NDArray[np.int32], NDArray[np.bool_]]:
@@ -327,10 +406,8 @@ class BagReader:
     def frame(self, clip: str, index: int) -> Frame:
         topics = self._clip(clip)
         clouds = [(info["sensor_id"], topics.get(points_topic(info["name"]), [])) for info in self.sensors]
-        if ALL_POINTS_TOPIC in topics:
-            clouds = [(None, topics[ALL_POINTS_TOPIC])]
         arrays = [(sensor, cloud_array(messages[index])) for sensor, messages in clouds]
-        points = np.concatenate([a for _, a in arrays]) if arrays else np.zeros(0, POINT_DTYPE)
+        points = np.concatenate([a for _, a in arrays]) if arrays else np.zeros(0, SIMGEN_LAYOUT.dtype)
         header = clouds[0][1][index].header.stamp
         stamp_ns = header.sec * 1_000_000_000 + header.nanosec
         markers = topics[BOXES_TOPIC][index]
@@ -342,31 +419,39 @@ class BagReader:
             intensity=points["intensity"].astype(np.uint8), boxes=boxes, class_name=names, track_id=ids, discontinuity=placed,
             time_s=stamp_ns / 1e9, label_time_s=(label.sec * 1_000_000_000 + label.nanosec) / 1e9,
             time_offset_s=(points["offset_time"] / 1e9).astype(np.float32),
-            sensor=np.concatenate([np.full(len(a), s if s is not None else 0, np.uint8) for s, a in arrays]) if arrays else None,
+            sensor=np.concatenate([np.full(len(a), s, np.uint8) for s, a in arrays]) if arrays else None,
             head=points["line"].copy(), instance_id=points["instance_id"].copy(),
         )
 
 
 def card_lines() -> list[str]:
     """The dataset card's layout section for an `mcap` dataset."""
-    fields = [[f"`{name}`", offset, {FLOAT32: "FLOAT32", FLOAT64: "FLOAT64", UINT8: "UINT8", UINT32: "UINT32", INT32: "INT32"}[kind]]
-              for name, offset, kind, _ in POINT_FIELDS]
     meaning = ["metres, pitch frame", "", "", "reflectivity 0-255", "0 (no return flags)", "head of the sensor",
                "shot time, ns (header stamp + offset_time)", "ns since the header stamp", "track id, 1000 ball, -1 none"]
+    rows = [f"| `{name}` | {offset} | {DATATYPE_NAMES[kind]} | {text} |" for (name, offset, kind, _), text in zip(POINT_FIELDS, meaning)]
+    qos = {topic: profile.durability.name.lower() for topic, profile in QOS_PROFILES.items()}
     return [
         "A ROS 2 bag in MCAP per clip, `<clip id>.mcap` (CDR, ROS 2 Humble message definitions in the file; open it",
-        "with Foxglove, `ros2 bag play`, `rosbags` or the `mcap` Python package). Stamps are game time, not the epoch.",
+        "with Foxglove, `ros2 bag play`, `rosbags` or the `mcap` Python package). Stamps are game time, not the epoch:",
+        "a cloud's header stamp is its frame's sweep start, the boxes' the label time (the middle of the sweep).",
         "",
         f"- `{points_topic('<sensor name>')}`: `sensor_msgs/msg/PointCloud2` per sensor and frame (empty ones too),",
-        f"  frame `{WORLD_FRAME}`, {POINT_STEP}-byte little-endian points; the first 26 bytes are livox_ros_driver2's layout:",
+        f"  frame `{WORLD_FRAME}`, {SIMGEN_LAYOUT.step}-byte little-endian points; the first {LIVOX_LAYOUT.step} bytes are",
+        "  livox_ros_driver2's point (`LivoxPointXyzrtlt`), but in the pitch frame, not the sensor's; read the fields by",
+        "  name. `simgen export --ros2-layout livox` writes the driver's exact 26-byte point in each sensor's frame.",
         "",
         "| field | offset | type | meaning |",
         "| --- | --- | --- | --- |",
-        *(f"| {name} | {offset} | {kind} | {text} |" for (name, offset, kind), text in zip(fields, meaning)),
+        *rows,
         "",
         f"- `{BOXES_TOPIC}`: `visualization_msgs/msg/MarkerArray` per frame at the label time: DELETEALL, then per",
         "  humanoid a CUBE (namespace `boxes`, id = track id, `text` = class) and a TEXT_VIEW_FACING track id; a",
         "  humanoid the engine placed for a restart (`discontinuity`) also a TEXT_VIEW_FACING `placed` (namespace",
         f"  `{DISCONTINUITY_NAMESPACE}`, id = track id).",
-        f"- `{TF_STATIC_TOPIC}`: `tf2_msgs/msg/TFMessage`, `{WORLD_FRAME}` -> each sensor's name (its pose).",
+        f"- `{TF_STATIC_TOPIC}`: `tf2_msgs/msg/TFMessage` at the first frame's stamp, `{WORLD_FRAME}` -> each sensor's name (its pose).",
+        "",
+        "Each channel carries rosbag2's `offered_qos_profiles` metadata, which `ros2 bag play` offers again: all reliable;",
+        f"points {qos['points']} (keep last {QOS_PROFILES['points'].depth}, as livox_ros_driver2 publishes), boxes"
+        f" {qos[BOXES_TOPIC]}, `{TF_STATIC_TOPIC}` {qos[TF_STATIC_TOPIC].replace('_', ' ')} (keep last 1, as tf2's static",
+        "broadcaster), so RViz and tf2 get the sensor poses whenever they subscribe.",
     ]

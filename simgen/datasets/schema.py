@@ -5,9 +5,10 @@ Four tables, as Waymo Open Dataset v2 lays out its components: `frames` (one row
 per frame) in a file per clip (`<table>/<clip id>/part-0.parquet`), each row carrying its keys
 (`clip`, `frame`) inside the file, as Waymo's `key.*` columns do, so a file copied out of its
 folder still says what it holds; and `sensors` (one row per sensor), once per dataset
-(`sensors/part-0.parquet`). Every field carries `doc` and `unit` metadata; every file carries
-`simgen.dataset` schema metadata (JSON: schema version, table name, pitch frame), which the
-reader checks.
+(`sensors/part-0.parquet`). Every field carries `doc` and `unit` metadata, which only pyarrow
+shows: the `units` table (`units/part-0.parquet`, once per dataset) holds the same as rows, for
+duckdb, polars and pandas. Every file carries `simgen.dataset` schema metadata (JSON: schema
+version, table name, pitch frame), which the reader checks.
 """
 
 from __future__ import annotations
@@ -18,8 +19,9 @@ import pyarrow as pa
 
 from simgen.vocab import BALL_INSTANCE_ID, KEYPOINT_NAMES, NUM_KEYPOINTS, SEMANTIC_NAMES
 
-SCHEMA_VERSION = 4  # 2: `clip` and `frame` columns in every per-clip table, `sensors` once per dataset, points.sweep;
-#                    3: `points` row groups of 10 frames instead of one each; 4: boxes.discontinuity
+SCHEMA_VERSION = 5  # 2: `clip` and `frame` columns in every per-clip table, `sensors` once per dataset, points.sweep;
+#                    3: `points` row groups of 10 frames instead of one each; 4: boxes.discontinuity;
+#                    5: each clip's `start_s` in the manifest (the frames' game time in every format), a `units` table
 METADATA_KEY = b"simgen.dataset"
 PITCH_FRAME = "pitch: origin at the centre spot, x towards the right team's goal, y left, z up; metres"
 BOX_CONVENTION = (
@@ -130,8 +132,30 @@ SENSORS = pa.schema(
     ]
 )
 
-TABLES: dict[str, pa.Schema] = {"frames": FRAMES, "points": POINTS, "boxes": BOXES, "sensors": SENSORS}
-CLIP_TABLES = ("frames", "points", "boxes")  # a file per clip; `sensors` is one file per dataset
+UNITS = pa.schema(
+    [
+        _field("table_name", pa.string(), "a table of the dataset (its folder)"),
+        _field("column_name", pa.string(), "a column of that table"),
+        _field("unit", pa.string(), "its unit (SI symbols; empty: a count, an index or a name)"),
+        _field("doc", pa.string(), "what it holds"),
+    ]
+)
+
+TABLES: dict[str, pa.Schema] = {"frames": FRAMES, "points": POINTS, "boxes": BOXES, "sensors": SENSORS, "units": UNITS}
+CLIP_TABLES = ("frames", "points", "boxes")  # a file per clip; `sensors` and `units` are one file per dataset
+DATA_TABLES = (*CLIP_TABLES, "sensors")  # the tables whose columns `units` describes
+
+
+def units_rows() -> dict[str, list[str]]:
+    """The `units` table's columns: each data table's field metadata as rows, for readers that drop
+    field metadata (duckdb, polars, pandas)."""
+    fields = [(name, field) for name in DATA_TABLES for field in TABLES[name]]
+    return {
+        "table_name": [name for name, _ in fields],
+        "column_name": [field.name for _, field in fields],
+        "unit": [field.metadata[b"unit"].decode() for _, field in fields],
+        "doc": [field.metadata[b"doc"].decode() for _, field in fields],
+    }
 
 
 def with_table_metadata(schema: pa.Schema, table: str) -> pa.Schema:

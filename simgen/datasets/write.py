@@ -20,7 +20,7 @@ from simgen.datasets.card import dataset_card
 from simgen.datasets.kitti import KittiClipStream, write_placeholder_images
 from simgen.datasets.manifest import FORMATS, MANIFEST_NAME, ClipEntry, Manifest, dependency_versions, manifest_bytes
 from simgen.datasets.openpcdet import OpenPCDetClipStream
-from simgen.datasets.parquet import ParquetClipStream, write_parquet_sensors
+from simgen.datasets.parquet import ParquetClipStream, write_parquet_sensors, write_parquet_units
 from simgen.datasets.records import ClipRecord, FileRecord, write_bytes, write_text
 from simgen.datasets.ros2_bag import McapClipStream
 from simgen.datasets.samples import sample_name, val_clips
@@ -66,6 +66,7 @@ class ClipWriter:
             raise UserError(f"clip {clip}: clip index {clip_index} is negative")
         self.format, self.clip, self.clip_index = format, clip, clip_index
         self.next_index, self.frames, self.points, self.boxes = first_frame, 0, 0, 0
+        self.start_s = 0.0  # the first frame's time_s, once it comes
         root = Path(root)
         if format == "parquet":
             self._stream = ParquetClipStream(root, clip)
@@ -79,6 +80,8 @@ class ClipWriter:
     def add(self, frame: LabelledFrame) -> None:
         check_frame(self.clip, self.next_index, frame)
         self._stream.add(frame)
+        if not self.frames:
+            self.start_s = frame.time_s
         self.next_index += 1
         self.frames += 1
         self.points += len(frame.scan.points_m)
@@ -95,6 +98,7 @@ class ClipWriter:
             frames=self.frames,
             points=self.points,
             boxes=self.boxes,
+            start_s=self.start_s,
             files=tuple(sorted(files, key=lambda f: f.path)),
         )
 
@@ -138,8 +142,8 @@ def _image_sets(root: Path, clips: Sequence[ClipRecord]) -> list[FileRecord]:
 def finish_dataset(
     root: Path, format: str, clips: Sequence[ClipRecord], sensors: Sequence[SensorInfo], scenario: Mapping, seed: int
 ) -> Manifest:
-    """Write the ImageSets (KITTI, OpenPCDet) or the sensors table (Parquet), README.md and, last,
-    manifest.json.
+    """Write the ImageSets (KITTI, OpenPCDet) or the sensors and units tables (Parquet), README.md and,
+    last, manifest.json.
 
     KITTI with `scenario["dataset"]["kitti_images"]` also gets placeholder training/image_2 PNGs.
     """
@@ -157,7 +161,7 @@ def finish_dataset(
     if format in IMAGE_SET_FORMATS:
         files += _image_sets(root, clips)
     if format == "parquet":
-        files.append(write_parquet_sensors(root, sensors))
+        files += [write_parquet_sensors(root, sensors), write_parquet_units(root)]
     if format == "kitti" and scenario.get("dataset", {}).get("kitti_images"):
         files += write_placeholder_images(root, [(c.clip_index, c.frames) for c in clips])
     val = val_clips([c.clip_index for c in clips])
@@ -170,7 +174,8 @@ def finish_dataset(
         seed=seed,
         sensors=tuple(asdict(s) for s in sorted(sensors, key=lambda s: s.sensor_id)),
         clips=tuple(
-            ClipEntry(c.clip, c.clip_index, c.frames, c.points, c.boxes, "val" if c.clip_index in val else "train") for c in clips
+            ClipEntry(c.clip, c.clip_index, c.frames, c.points, c.boxes, "val" if c.clip_index in val else "train", c.start_s)
+            for c in clips
         ),
         files=tuple(sorted(files, key=lambda f: f.path)),
     )

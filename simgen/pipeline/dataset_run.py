@@ -187,7 +187,7 @@ def run_assemble(job: Job, progress: Progress) -> dict:
     if writes_in_place(fmt, len(shards)):
         record = ClipRecord(
             fmt, name, job.clip_index, sum(s.frames for s in shards), sum(s.points for s in shards), sum(s.boxes for s in shards),
-            tuple(sorted((f for s in shards for f in s.files), key=lambda f: f.path)),
+            shards[0].start_s, tuple(sorted((f for s in shards for f in s.files), key=lambda f: f.path)),
         )
     else:
         with ClipWriter(root, fmt, name, job.clip_index, sensor_infos(scenario)) as writer:

@@ -122,8 +122,15 @@ def _frames_table(qa: DatasetQA) -> Table:
     return Table(("per frame", "mean", "min", "max"), tuple(rows))
 
 
-def _integrity_section(result: Verification) -> Section:
-    rows = tuple((p.file, "" if p.row is None else str(p.row), p.message) for p in result.problems[:MAX_PROBLEMS_SHOWN])
+def _in_dataset(file: str, root: Path) -> str:
+    """A problem's file as the report names it: from the dataset's folder name down, never its full path."""
+    path = Path(file)
+    return f"{root.resolve().name}/{path.relative_to(root).as_posix()}" if path.is_relative_to(root) else path.name
+
+
+def _integrity_section(result: Verification, root: Path) -> Section:
+    rows = tuple((_in_dataset(p.file, root), "" if p.row is None else str(p.row), p.message)
+                 for p in result.problems[:MAX_PROBLEMS_SHOWN])
     more = len(result.problems) - len(rows)
     text = (f"simgen verify: {len(result.problems)} problems in {result.files} files, {result.frames} frames, "
             f"{result.boxes} boxes" + (f" ({more} more not shown)" if more > 0 else "") + ". " + " ".join(result.notes))
@@ -156,9 +163,9 @@ def dataset_report(dataset: Dataset, tol: Tolerances, out_dir: Path, max_frames:
                 ((f"{PLOTS}/humanoids.png", "points per humanoid"),), (_humanoid_table(qa),)),
         Section("Frames: points, dropout, misses, intensity", "", ((f"{PLOTS}/frames.png", "frame statistics"),),
                 (_frames_table(qa),)),
-        _integrity_section(verification),
+        _integrity_section(verification, dataset.root),
     ]
     scenario = manifest.scenario.get("name", "?")
-    subject = (f"{dataset.root}: {manifest.format}, scenario '{scenario}', seed {manifest.seed}, {len(manifest.clips)} clips, "
+    subject = (f"{dataset.root.resolve().name}: {manifest.format}, scenario '{scenario}', seed {manifest.seed}, {len(manifest.clips)} clips, "
                f"{len(dataset)} frames; tolerances from {tol.source}.")
-    return Report(f"Dataset QA: {dataset.root.name}", subject, tuple(checks), tuple(sections))
+    return Report(f"Dataset QA: {dataset.root.resolve().name}", subject, tuple(checks), tuple(sections))

@@ -1,9 +1,11 @@
 """The pass / fail limits of `simgen qa` and `simgen verify`: tolerances.yaml beside this module, or
-a user's edited copy. Every key is required and unknown keys are refused, in one line."""
+a user's edited copy. Every key is required and unknown keys are refused, in one line. Reports name
+the file without its folders (`Tolerances.source`): a report attached to a ticket shows no one's disk."""
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,7 +44,7 @@ class Tolerances:
     pattern: PatternTolerances
     dataset: DatasetTolerances
     labels: LabelTolerances
-    source: str  # the file they came from
+    source: str  # the file they came from: the shipped one relative to the package, a user's by name and sha256
 
 
 def _section(path: Path, name: str, cls: type, data: dict) -> object:
@@ -78,4 +80,10 @@ def load_tolerances(path: str | Path | None = None) -> Tolerances:
     labels = parts["labels"]
     if labels.min_box_size_m > labels.max_box_size_m:
         raise UserError(f"{path}: 'labels.min_box_size_m' is larger than 'labels.max_box_size_m'")
-    return Tolerances(**parts, source=str(path))
+    return Tolerances(**parts, source=_source_name(path))
+
+
+def _source_name(path: Path) -> str:
+    if path.resolve() == DEFAULT_PATH.resolve():
+        return f"{DEFAULT_PATH.parent.parent.name}/{DEFAULT_PATH.parent.name}/{DEFAULT_PATH.name} (shipped)"
+    return f"{path.name} (sha256 {hashlib.sha256(path.read_bytes()).hexdigest()[:12]})"

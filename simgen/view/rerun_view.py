@@ -9,8 +9,10 @@ Entities, in the pitch frame (metres, z up):
 - `world/boxes`: the humanoids' boxes (`Boxes3D`, rotated by their yaw), labelled with their track ids;
   `world/headings`: an arrow along each box's heading.
 
-Every frame is logged on two timelines: `game_time` (the frame's sweep start, seconds of game time)
-and `frame` (its index); Rerun's wall-clock `log_time` is left out. The recording id is the dataset's
+Every frame is logged on two timelines, `frame` (its index) and `game_time` (seconds of game time, the
+clock of every simgen output): its points at the sweep's start (`Frame.time_s`), its boxes and headings
+at the label time (`Frame.label_time_s`, the middle of the sweep), where the ROS 2 bags put their
+markers; Rerun's wall-clock `log_time` is left out. The recording id is the dataset's
 folder name and the clip id.
 """
 
@@ -78,13 +80,12 @@ def _box_colours(frame: Frame) -> NDArray[np.uint8]:
     return colours
 
 
-def log_frame(rec, frame: Frame, colouring: str, frame_s: float) -> None:
-    """One frame's points, boxes and headings at its game time."""
+def log_frame(rec, frame: Frame, colouring: str) -> None:
+    """One frame's points at its sweep start, its boxes and headings at its label time."""
     import rerun as rr
 
-    time_s = frame.time_s if frame.time_s is not None else frame.index * frame_s
-    rec.set_time("game_time", duration=time_s)
     rec.set_time("frame", sequence=frame.index)
+    rec.set_time("game_time", duration=frame.time_s)
     points = np.asarray(frame.points_m, np.float32)
     values = points[:, 2] if colouring == "height" else frame.intensity
     rec.log("world/points", rr.Points3D(points, colors=_rgb(point_colours(values, colouring)), radii=POINT_RADIUS_M))
@@ -93,6 +94,7 @@ def log_frame(rec, frame: Frame, colouring: str, frame_s: float) -> None:
     ids = frame.track_id if frame.track_id is not None else np.arange(len(boxes))
     colours = _box_colours(frame)
     quaternions = np.column_stack([np.zeros((len(boxes), 2)), np.sin(yaw / 2), np.cos(yaw / 2)])  # x, y, z, w
+    rec.set_time("game_time", duration=frame.label_time_s)
     rec.log("world/boxes", rr.Boxes3D(
         centers=boxes[:, :3], half_sizes=boxes[:, 3:6] / 2, quaternions=quaternions, colors=colours,
         labels=[str(int(i)) for i in ids], show_labels=True,
@@ -118,14 +120,13 @@ def write_recording(dataset: Dataset, clip: str, frames: range, path: Path, colo
     from tqdm import tqdm
 
     sensors = [sensor_geometry(info, dataset.manifest.scenario) for info in dataset.manifest.sensors]
-    frame_s = 1.0 / float(dataset.manifest.sensors[0]["frame_rate_hz"])
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"{dataset.root.resolve().name}.{clip}", send_properties=False)
     rr.set_log_time_enabled(False, recording=rec)
     with atomic_suffixed(path) as tmp:
         rec.save(tmp)
         log_static(rec, sensors)
         for index in tqdm(frames, unit="frame", desc=f"{clip} -> {path.name}", dynamic_ncols=True):
-            log_frame(rec, dataset.frame(clip, index), colouring, frame_s)
+            log_frame(rec, dataset.frame(clip, index), colouring)
         rec.flush()
         rec.disconnect()
     return len(frames)
