@@ -6,7 +6,7 @@ Topics (CDR-encoded, ROS 2 Humble message definitions):
   frames too, so the k-th message of a topic is frame k). Points in the `pitch` frame (metres),
   laid out as livox_ros_driver2 publishes its PointCloud2 (packed, little-endian): `x y z` float32
   at 0, 4, 8, `intensity` float32 at 12 (reflectivity 0-255), `tag` uint8 at 16 (0: simgen has no
-  return flags), `line` uint8 at 17 (the head), `timestamp` float64 at 18 (the shot's time, ns, on
+  return flags), `line` uint8 at 17 (the laser that fired), `timestamp` float64 at 18 (the shot's time, ns, on
   the stamps' clock); then simgen's own `offset_time` uint32 at 26 (ns since the header stamp, as
   Livox's CustomMsg) and `instance_id` int32 at 30 (track id, 1000 the ball, -1 nothing). A dataset
   that keeps no sensor per point (KITTI, OpenPCDet) has one topic, `/simgen/points`.
@@ -115,8 +115,8 @@ def cloud_points(frame: Frame, mask: NDArray[np.bool_] | slice, stamp_ns: int) -
     out = np.zeros(len(points), POINT_DTYPE)
     out["x"], out["y"], out["z"] = points[:, 0], points[:, 1], points[:, 2]
     out["intensity"] = np.asarray(frame.intensity)[mask]
-    if frame.head is not None:
-        out["line"] = frame.head[mask]
+    if frame.line is not None:
+        out["line"] = frame.line[mask]
     if frame.time_offset_s is not None:
         out["offset_time"] = np.rint(frame.time_offset_s[mask].astype(np.float64) * 1e9)
     out["timestamp"] = stamp_ns + out["offset_time"].astype(np.float64)
@@ -224,7 +224,7 @@ def labelled_to_frame(frame: LabelledFrame) -> Frame:
     return Frame(
         clip=frame.clip, index=frame.index, points_m=scan.points_m, intensity=scan.intensity, boxes=labels.boxes,
         class_name=class_names(labels.team), track_id=labels.track_id, time_s=frame.time_s,
-        label_time_s=frame.label_time_s, time_offset_s=scan.time_offset_s, sensor=scan.sensor, head=scan.head,
+        label_time_s=frame.label_time_s, time_offset_s=scan.time_offset_s, sensor=scan.sensor, head=scan.head, line=scan.line,
         instance_id=scan.instance_id, discontinuity=labels.discontinuity,
     )
 
@@ -343,7 +343,7 @@ class BagReader:
             time_s=stamp_ns / 1e9, label_time_s=(label.sec * 1_000_000_000 + label.nanosec) / 1e9,
             time_offset_s=(points["offset_time"] / 1e9).astype(np.float32),
             sensor=np.concatenate([np.full(len(a), s if s is not None else 0, np.uint8) for s, a in arrays]) if arrays else None,
-            head=points["line"].copy(), instance_id=points["instance_id"].copy(),
+            line=points["line"].copy(), instance_id=points["instance_id"].copy(),
         )
 
 
@@ -351,7 +351,7 @@ def card_lines() -> list[str]:
     """The dataset card's layout section for an `mcap` dataset."""
     fields = [[f"`{name}`", offset, {FLOAT32: "FLOAT32", FLOAT64: "FLOAT64", UINT8: "UINT8", UINT32: "UINT32", INT32: "INT32"}[kind]]
               for name, offset, kind, _ in POINT_FIELDS]
-    meaning = ["metres, pitch frame", "", "", "reflectivity 0-255", "0 (no return flags)", "head of the sensor",
+    meaning = ["metres, pitch frame", "", "", "reflectivity 0-255", "0 (no return flags)", "laser of the head that fired",
                "shot time, ns (header stamp + offset_time)", "ns since the header stamp", "track id, 1000 ball, -1 none"]
     return [
         "A ROS 2 bag in MCAP per clip, `<clip id>.mcap` (CDR, ROS 2 Humble message definitions in the file; open it",
