@@ -26,7 +26,7 @@ from scan_patterns.livox_tables import TABLES
 from scan_patterns.shots import Shots, dirs_from_livox, make_shots
 
 # Livox's official files, shipped in scan_patterns/reference/ (its README: source, licence): Mid-40
-# and Mid-70 whole (float64 degrees and times), the others as `livox_tables` writes them.
+# and Mid-70 whole (float64 degrees and times), the others as `write_tables` writes them.
 OFFICIAL_FILES = {
     "mid40": "mid40_official_4s.npz",
     "mid70": "mid70_official_4s.npz",
@@ -80,7 +80,7 @@ def livox_dir() -> Path:
 
 def resolve(source: str) -> Path:
     """Path of a pattern file: an official name (`OFFICIAL_FILES`) or a path to .npz / .csv. In
-    $SIMGEN_LIVOX_DIR a whole table written by `livox_tables --full` comes before the excerpt."""
+    $SIMGEN_LIVOX_DIR a whole table written by `write_tables --full` comes before the excerpt."""
     path = Path(source)
     if source in OFFICIAL_FILES:
         path = livox_dir() / OFFICIAL_FILES[source]
@@ -115,7 +115,7 @@ def check_pattern_file(path: Path) -> None:
 
 @functools.lru_cache(maxsize=8)
 def load_pattern_file(source: str) -> PatternFile:
-    """Load a pattern file: npz with t_s, azimuth_deg, zenith_deg; npz as `livox_tables` writes
+    """Load a pattern file: npz with t_s, azimuth_deg, zenith_deg; npz as `write_tables` writes
     (azimuth_rad, elevation_rad float32, shots_per_s, lasers); or Livox CSV `time,azimuth,zenith`."""
     path = resolve(source)
     lasers = None

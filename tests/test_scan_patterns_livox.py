@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import scan_patterns as sp
-from scan_patterns.livox_tables import TABLES, write_table
+from scan_patterns.livox_tables import TABLES
+from scan_patterns.write_tables import write_table
 from scan_patterns.replay import load_pattern_file
 from scan_patterns.shots import angle_between_deg
 from simgen.cli import main
