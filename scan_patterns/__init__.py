@@ -14,10 +14,12 @@ from scan_patterns.metrics import (
     BEAM_DIVERGENCE_DEG,
     CELL_SIZES_DEG,
     COVERAGE_TIMES_S,
+    FieldOfView,
     PatternComparison,
     RadialProfile,
     compare,
     coverage_curve,
+    field_coords,
     radial_density,
     target_points_per_frame,
 )
@@ -25,12 +27,14 @@ from scan_patterns.replay import PatternLoopWarning, file_shots, load_pattern_fi
 from scan_patterns.risley import MID40, RisleyParams
 from scan_patterns.rose import RoseParams
 from scan_patterns.sensors import (
+    OFFICIAL_HEADS,
     HeadSpec,
     SensorSpec,
     UnknownSensorError,
     get_sensor,
     make_head,
     make_sensor,
+    official_table,
     register_sensor,
     sensor_names,
 )
@@ -42,6 +46,8 @@ __all__ = [
     "CELL_SIZES_DEG",
     "COVERAGE_TIMES_S",
     "MID40",
+    "OFFICIAL_HEADS",
+    "FieldOfView",
     "HeadSpec",
     "PatternComparison",
     "PatternLoopWarning",
@@ -53,6 +59,7 @@ __all__ = [
     "UnknownSensorError",
     "compare",
     "coverage_curve",
+    "field_coords",
     "file_shots",
     "frame_shots",
     "frame_window",
@@ -62,6 +69,7 @@ __all__ = [
     "load_pattern_file",
     "make_head",
     "make_sensor",
+    "official_table",
     "radial_density",
     "register_sensor",
     "sensor_names",

@@ -1,14 +1,18 @@
 """Fidelity metrics of a pattern: how fast it covers the field of view, where its shots go, and how
 many land on a person-sized target. All take head-frame `Shots` (a pattern, not a whole sensor).
 
-Projection: a direction at off-axis angle rho (from the boresight x) and angle psi about it (from +y
-towards +z) maps to (u, v) = rho (cos psi, sin psi) in degrees, the azimuthal-equidistant
-projection of the field-of-view cone; the field of view is the disc rho <= fov / 2.
+A field of view `fov` is a circular cone, its full angle in degrees (Mid-40, Mid-70), or a box
+(azimuth min, max, elevation min, max) in degrees (Avia, Horizon, Tele-15, HAP, Mid-360).
+Projection: in a cone a direction at off-axis angle rho (from the boresight x) and angle psi about
+it (from +y towards +z) maps to (u, v) = rho (cos psi, sin psi) in degrees, the azimuthal-
+equidistant projection, and the field of view is the disc rho <= fov / 2; in a box (u, v) is
+(azimuth, elevation) in degrees, the field of view the box.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Union
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,6 +24,8 @@ CELL_SIZES_DEG = (0.1, 0.2, 0.3)
 BEAM_DIVERGENCE_DEG = (0.03, 0.28)  # Livox Mid-40 datasheet: horizontal (y) x vertical (z), full angles
 TARGET_SIZE_M = (0.5, 1.8)  # width x height of the upright person-sized target
 
+FieldOfView = Union[float, tuple[float, float, float, float]]  # cone angle, or (az min, max, el min, max); degrees
+
 
 def projected_deg(dirs: NDArray) -> NDArray[np.float64]:
     """(N, 2) azimuthal-equidistant coordinates (u along +y, v along +z), degrees."""
@@ -28,6 +34,30 @@ def projected_deg(dirs: NDArray) -> NDArray[np.float64]:
     rho_deg = np.degrees(np.arctan2(lateral, d[:, 0]))
     scale = np.divide(rho_deg, lateral, out=np.zeros_like(lateral), where=lateral > 0)
     return np.column_stack([d[:, 1] * scale, d[:, 2] * scale])
+
+
+def field_coords(dirs: NDArray, fov: FieldOfView) -> NDArray[np.float64]:
+    """(N, 2) coordinates (degrees) of unit vectors in the projection of the field of view `fov`."""
+    if np.ndim(fov) == 0:
+        return projected_deg(dirs)
+    d = np.asarray(dirs, np.float64)
+    azimuth = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
+    return np.column_stack([azimuth, np.degrees(np.arcsin(np.clip(d[:, 2], -1.0, 1.0)))])
+
+
+def _grid(fov: FieldOfView, cell_deg: float) -> tuple[NDArray[np.float64], int, tuple[int, int], NDArray[np.bool_]]:
+    """The cell grid of a field of view: the origin of the coordinates its cells count from, the
+    index of the cell at that origin, its size (cells along u, v) and which cells (flattened,
+    u major) have their centres in the field of view."""
+    if np.ndim(fov) == 0:
+        half = int(np.ceil(fov / 2.0 / cell_deg)) + 1  # grid of (2 half)^2 cells round the boresight
+        centres = (np.arange(-half, half) + 0.5) * cell_deg
+        return np.zeros(2), half, (2 * half, 2 * half), (np.hypot(centres[:, None], centres[None, :]) <= fov / 2.0).ravel()
+    az_lo, az_hi, el_lo, el_hi = fov
+    size = (int(np.ceil((az_hi - az_lo) / cell_deg)), int(np.ceil((el_hi - el_lo) / cell_deg)))
+    u = az_lo + (np.arange(size[0]) + 0.5) * cell_deg
+    v = el_lo + (np.arange(size[1]) + 0.5) * cell_deg
+    return np.array([az_lo, el_lo]), 0, size, ((u[:, None] <= az_hi) & (v[None, :] <= el_hi)).ravel()
 
 
 def _cells_hit(uv: NDArray, cell_deg: float, footprint_deg: tuple[float, float] | None):
@@ -53,7 +83,7 @@ def _cells_hit(uv: NDArray, cell_deg: float, footprint_deg: tuple[float, float] 
 
 def coverage_curve(
     shots: Shots,
-    fov_deg: float,
+    fov: FieldOfView,
     times_s=COVERAGE_TIMES_S,
     cell_deg: float = 0.2,
     footprint_deg: tuple[float, float] | None = None,
@@ -64,12 +94,11 @@ def coverage_curve(
     hits its cell, or with `footprint_deg` = (horizontal, vertical) beam widths (e.g.
     BEAM_DIVERGENCE_DEG), every cell its elliptical footprint overlaps. T beyond the window: NaN.
     """
-    half = int(np.ceil(fov_deg / 2.0 / cell_deg)) + 1  # grid of (2 half)^2 cells round the boresight
-    centres = (np.arange(-half, half) + 0.5) * cell_deg
-    in_fov = (np.hypot(centres[:, None], centres[None, :]) <= fov_deg / 2.0).ravel()
-    shot, i, j = _cells_hit(projected_deg(shots.dirs), cell_deg, footprint_deg)
-    inside = (i >= -half) & (i < half) & (j >= -half) & (j < half)
-    cell = (i[inside] + half) * (2 * half) + (j[inside] + half)
+    origin, first, (cols, rows), in_fov = _grid(fov, cell_deg)
+    shot, i, j = _cells_hit(field_coords(shots.dirs, fov) - origin, cell_deg, footprint_deg)
+    i, j = i + first, j + first
+    inside = (i >= 0) & (i < cols) & (j >= 0) & (j < rows)
+    cell = i[inside] * rows + j[inside]
     first_hit = np.full(in_fov.size, np.inf)
     np.minimum.at(first_hit, cell, shots.t_s[shot[inside]] - shots.t0_s)
     first_hit = np.sort(first_hit[in_fov])
@@ -80,16 +109,23 @@ def coverage_curve(
 
 @dataclass(frozen=True)
 class RadialProfile:
-    off_axis_deg: NDArray[np.float64]  # bin centres
+    off_axis_deg: NDArray[np.float64]  # bin centres: off-axis angle (cone), elevation (box)
     shots_per_sr_s: NDArray[np.float64]  # shots per steradian per second
 
 
-def radial_density(shots: Shots, fov_deg: float, bin_deg: float = 0.5) -> RadialProfile:
-    """Shots per solid angle and second in rings of `bin_deg` off-axis angle, out to fov / 2."""
-    edges = np.arange(0.0, fov_deg / 2.0 + bin_deg / 2.0, bin_deg)
-    rho_deg = np.hypot(*projected_deg(shots.dirs).T)
-    counts, _ = np.histogram(rho_deg, edges)
-    solid_angle = 2.0 * np.pi * -np.diff(np.cos(np.radians(edges)))
+def radial_density(shots: Shots, fov: FieldOfView, bin_deg: float = 0.5) -> RadialProfile:
+    """Shots per solid angle and second in rings of `bin_deg` off-axis angle out to fov / 2 (cone),
+    or in bands of `bin_deg` elevation across the box's azimuths (box)."""
+    if np.ndim(fov) == 0:
+        edges = np.arange(0.0, fov / 2.0 + bin_deg / 2.0, bin_deg)
+        counts, _ = np.histogram(np.hypot(*projected_deg(shots.dirs).T), edges)
+        solid_angle = 2.0 * np.pi * -np.diff(np.cos(np.radians(edges)))
+    else:
+        az_lo, az_hi, el_lo, el_hi = fov
+        edges = np.arange(el_lo, el_hi + bin_deg / 2.0, bin_deg)
+        uv = field_coords(shots.dirs, fov)
+        counts, _ = np.histogram(uv[(uv[:, 0] >= az_lo) & (uv[:, 0] <= az_hi), 1], edges)
+        solid_angle = np.radians(az_hi - az_lo) * np.diff(np.sin(np.radians(edges)))
     return RadialProfile((edges[1:] + edges[:-1]) / 2.0, counts / solid_angle / shots.duration_s)
 
 
@@ -167,7 +203,7 @@ DEFAULT_TARGETS = ((25.0, 0.0), (50.0, 0.0), (100.0, 0.0), (50.0, 10.0), (50.0, 
 def compare(
     a: Shots,
     b: Shots,
-    fov_deg: float,
+    fov: FieldOfView,
     names: tuple[str, str] = ("a", "b"),
     times_s=COVERAGE_TIMES_S,
     cells_deg=CELL_SIZES_DEG,
@@ -178,8 +214,8 @@ def compare(
     return PatternComparison(
         names=names,
         times_s=np.asarray(times_s, np.float64),
-        coverage={c: (coverage_curve(a, fov_deg, times_s, c), coverage_curve(b, fov_deg, times_s, c)) for c in cells_deg},
-        radial=(radial_density(a, fov_deg), radial_density(b, fov_deg)),
+        coverage={c: (coverage_curve(a, fov, times_s, c), coverage_curve(b, fov, times_s, c)) for c in cells_deg},
+        radial=(radial_density(a, fov), radial_density(b, fov)),
         targets=tuple(targets),
         target_points=tuple(
             np.array([target_points_per_frame(s, r, off, frame_rate_hz).mean() for r, off in targets]) for s in (a, b)

@@ -29,6 +29,7 @@ class Shots:
     t_s: NDArray[np.float64]  # (N,) shot time, seconds
     dirs: NDArray[np.float32]  # (N, 3) unit direction
     head: NDArray[np.uint8]  # (N,) head index in the sensor
+    line: NDArray[np.uint8]  # (N,) laser of the head that fired (Livox's `line`): shot k fires laser (k - 1) mod lasers
     sweep: NDArray[np.uint8]  # (N,) sweep index within the frame (0 outside `frame_shots`)
     t0_s: float
     t1_s: float
@@ -41,13 +42,14 @@ class Shots:
         return self.t1_s - self.t0_s
 
 
-def make_shots(t_s: NDArray, dirs: NDArray, t0_s: float, t1_s: float, head: int = 0) -> Shots:
-    """Shots of one head (sweep 0) from times and directions."""
+def make_shots(t_s: NDArray, dirs: NDArray, t0_s: float, t1_s: float, head: int = 0, line: NDArray | None = None) -> Shots:
+    """Shots of one head (sweep 0) from times and directions; `line` default all laser 0."""
     n = len(t_s)
     return Shots(
         np.asarray(t_s, np.float64),
         np.asarray(dirs, np.float32),
         np.full(n, head, np.uint8),
+        np.zeros(n, np.uint8) if line is None else np.asarray(line, np.uint8),
         np.zeros(n, np.uint8),
         float(t0_s),
         float(t1_s),
@@ -60,6 +62,7 @@ def concatenate(parts: list[Shots]) -> Shots:
         np.concatenate([p.t_s for p in parts]),
         np.concatenate([p.dirs for p in parts]),
         np.concatenate([p.head for p in parts]),
+        np.concatenate([p.line for p in parts]),
         np.concatenate([p.sweep for p in parts]),
         min(p.t0_s for p in parts),
         max(p.t1_s for p in parts),

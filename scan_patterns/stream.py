@@ -22,25 +22,30 @@ def _check_density(density: float) -> None:
         raise ValueError(f"density must be a positive number, got {density}")
 
 
-def pattern_directions(head: HeadSpec, t_local_s: np.ndarray, clock: tuple[int, float] | None = None) -> np.ndarray:
+def pattern_directions(
+    head: HeadSpec, t_local_s: np.ndarray, clock: tuple[int, float] | None = None, line: np.ndarray | None = None
+) -> np.ndarray:
     """(N, 3) float32 head-frame directions of the head's pattern at head-local times (s); `clock`:
-    (first shot index, shots per second) when the times are the head's shot clock."""
+    (first shot index, shots per second) when the times are the head's shot clock; `line`: each
+    shot's laser (default laser 0)."""
     model = head.model
     if head.pattern == "risley":
         return risley.directions(model, t_local_s, clock)
     if head.pattern == "rose":
         return rose.directions(model, head.fov_deg, t_local_s)
-    return replay.directions(model, t_local_s)
+    return replay.directions(model, t_local_s, line, head.lasers)
 
 
 def head_shots(head: HeadSpec, t0_s: float, t1_s: float, density: float = 1.0, index: int = 0) -> Shots:
-    """Shots of one head in (t0_s, t1_s], directions in the head frame, `head` column = `index`."""
+    """Shots of one head in (t0_s, t1_s], directions in the head frame, `head` column = `index`,
+    `line` the laser: shot k of the head's clock fires laser (k - 1) mod lasers."""
     _check_density(density)
     offset = head.time_offset_s
     rate = head.shots_per_s * density
     t_local = shot_times(t0_s + offset, t1_s + offset, rate)
     clock = (first_shot(t0_s + offset, rate), rate)
-    return make_shots(t_local - offset, pattern_directions(head, t_local, clock), t0_s, t1_s, index)
+    line = (np.arange(clock[0] - 1, clock[0] - 1 + len(t_local)) % head.lasers).astype(np.uint8)
+    return make_shots(t_local - offset, pattern_directions(head, t_local, clock, line), t0_s, t1_s, index, line)
 
 
 def shots(sensor: SensorSpec, t0_s: float, t1_s: float, density: float = 1.0) -> Shots:
@@ -49,7 +54,7 @@ def shots(sensor: SensorSpec, t0_s: float, t1_s: float, density: float = 1.0) ->
     for index, head in enumerate(sensor.heads):
         part = head_shots(head, t0_s, t1_s, density, index)
         if head.yaw_deg or head.pitch_deg:
-            part = Shots(part.t_s, rotate(part.dirs, head_rotation(head.yaw_deg, head.pitch_deg)), part.head, part.sweep, t0_s, t1_s)
+            part = Shots(part.t_s, rotate(part.dirs, head_rotation(head.yaw_deg, head.pitch_deg)), part.head, part.line, part.sweep, t0_s, t1_s)
         parts.append(part)
     return concatenate(parts)
 
@@ -77,7 +82,7 @@ def frame_shots(
         raise ValueError(f"sweeps_per_frame must be in 1..255, got {sweeps_per_frame}")
     t0, t1 = frame_window(frame_index, frame_rate_hz)
     out = shots(sensor, t0, t1, density)
-    return Shots(out.t_s, out.dirs, out.head, sweep_index(out.t_s, t0, frame_rate_hz, sweeps_per_frame), t0, t1)
+    return Shots(out.t_s, out.dirs, out.head, out.line, sweep_index(out.t_s, t0, frame_rate_hz, sweeps_per_frame), t0, t1)
 
 
 def sweep_index(t_s: np.ndarray, t0_s: float, frame_rate_hz: float, sweeps_per_frame: int) -> np.ndarray:

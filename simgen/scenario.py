@@ -163,7 +163,8 @@ class RoseParamsConfig(_Strict):
 
 
 class ReplayParamsConfig(_Strict):
-    """`params` of a `replay` head: `file`, an official recording (mid40, mid70) or a .npz / .csv file
+    """`params` of a `replay` head: `file`, an official recording (mid40, mid70, avia, horizon, tele, hap,
+    mid360) or a .npz / .csv file
     in the scenario's folder or a folder of $SIMGEN_PATTERN_DIRS."""
 
     file: str = Field(..., min_length=1, max_length=4096)
@@ -202,6 +203,7 @@ class HeadConfig(_Strict):
     yaw_deg: float | None = Field(None, ge=-360, le=360)
     pitch_deg: float | None = Field(None, ge=-90, le=90)
     time_offset_s: float | None = Field(None, ge=0, le=1e6, description="How far ahead the head's pattern clock runs.")
+    lasers: int | None = Field(None, ge=1, le=255, description="Lasers taking turns: shot k fires laser (k - 1) mod lasers.")
 
     @field_validator("like")
     @classmethod
@@ -229,7 +231,7 @@ class HeadConfig(_Strict):
                 raise ValueError(f"params of a {pattern} head: {one_line(error)}") from None
             object.__setattr__(self, "params", typed.model_dump(exclude_none=True))
         elif pattern == "replay" and self.like is None:
-            raise ValueError("a replay head needs params: {file: mid40 | mid70 | PATH}")
+            raise ValueError("a replay head needs params: {file: mid40 | mid70 | avia | ... | PATH}")
         return self
 
     @model_serializer(mode="wrap")

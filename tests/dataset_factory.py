@@ -81,6 +81,7 @@ def _scan(rng: np.random.Generator, points: int, centres: np.ndarray, team: np.n
         time_offset_s=np.sort(rng.uniform(0, FRAME_S, points)).astype(np.float32),
         sensor=np.zeros(points, np.uint8),
         head=rng.integers(0, 3, points).astype(np.uint8),
+        line=rng.integers(0, 6, points).astype(np.uint8),
         instance_id=instance,
         semantic=semantic,
         shots=shots,

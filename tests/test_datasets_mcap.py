@@ -89,7 +89,7 @@ def test_every_point_and_box_matches_the_parquet_dataset(written, library):
                 assert _ns(cloud.header.stamp) == round(want.time_s * 1e9)
                 np.testing.assert_array_equal(np.stack([got["x"], got["y"], got["z"]], 1), want.points_m[mine])
                 np.testing.assert_array_equal(got["intensity"], want.intensity[mine])
-                np.testing.assert_array_equal(got["line"], want.head[mine])
+                np.testing.assert_array_equal(got["line"], want.line[mine])  # the laser, as livox_ros_driver2's line
                 np.testing.assert_array_equal(got["instance_id"], want.instance_id[mine])
                 assert np.all(np.abs(got["offset_time"] - want.time_offset_s[mine].astype(np.float64) * 1e9) <= 0.5)
                 np.testing.assert_array_equal(got["timestamp"], _ns(cloud.header.stamp) + got["offset_time"].astype(np.float64))
@@ -247,6 +247,6 @@ def test_the_livox_layout_is_the_drivers_26_byte_point_in_each_sensors_frame(wri
             mine = want.sensor == info.sensor_id
             in_pitch = rotation.apply(np.stack([got["x"], got["y"], got["z"]], 1).astype(np.float64)) + origin
             np.testing.assert_allclose(in_pitch, want.points_m[mine], rtol=0, atol=2e-5)  # float32 metres within 70 m
-            np.testing.assert_array_equal(got["line"], want.head[mine])
+            np.testing.assert_array_equal(got["line"], want.line[mine])
             np.testing.assert_array_equal(got["intensity"], want.intensity[mine])
             assert np.all(np.abs(got["timestamp"] - (want.time_s + want.time_offset_s[mine].astype(np.float64)) * 1e9) <= 1)

@@ -83,7 +83,7 @@ def test_parquet_keeps_everything_the_simulator_made(datasets):
     source = CLIPS[1][3]
     frame = datasets["parquet"].frame(source.clip, source.index)
     scan, labels = source.scan, source.labels
-    for name in ("time_offset_s", "sensor", "head", "instance_id", "semantic"):
+    for name in ("time_offset_s", "sensor", "head", "line", "instance_id", "semantic"):
         np.testing.assert_array_equal(getattr(frame, name), getattr(scan, name), err_msg=name)
     for name in ("team", "role", "velocity_mps", "keypoints_m", "num_points"):
         np.testing.assert_array_equal(getattr(frame, name), getattr(labels, name), err_msg=name)

@@ -16,7 +16,7 @@ def test_mid40_risley_export_is_the_official_file(tmp_path):
     out = tmp_path / "shots.npz"
     assert main(["pattern", "mid40-risley", "--seconds", "4", "-o", str(out)]) == 0
     with np.load(out) as data:
-        assert {"t_s", "azimuth_deg", "zenith_deg", "head"} <= set(data.files)
+        assert {"t_s", "azimuth_deg", "zenith_deg", "head", "line"} <= set(data.files)
         assert data["t_s"].dtype == np.float64 and data["head"].dtype == np.uint8
         np.testing.assert_allclose(data["t_s"], official["t_s"], atol=1e-9)
         assert np.abs(data["azimuth_deg"] - official["azimuth_deg"]).max() < 2e-5  # 3.0e-6 measured
@@ -66,5 +66,6 @@ def test_looping_replay_warns_on_stderr(tmp_path):
 def test_help_lists_the_presets():
     result = run_simgen("pattern", "--help")
     assert result.returncode == 0
-    for preset in ("mid40-risley", "mid40-rose", "mid40-replay", "mid70-replay", "mid100-risley", "mid100-rose"):
+    for preset in ("mid40-risley", "mid40-rose", "mid40-replay", "mid70-replay", "mid100-risley", "mid100-rose",
+                   "avia-replay", "horizon-replay", "tele15-replay", "hap-replay", "mid360-replay"):
         assert preset in result.stdout

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import scan_patterns as sp
-from scan_patterns.shots import dirs_from_off_axis, make_shots
+from scan_patterns.shots import dirs_from_angles, dirs_from_off_axis, make_shots
 
 
 def _at_projected(u_deg, v_deg):
@@ -32,6 +32,23 @@ def test_coverage_counts_cells_hit_by_time_t():
     doubled = make_shots(np.r_[t, t], _at_projected(np.r_[u, u], np.r_[v, v]), 0.0, 0.3)
     np.testing.assert_allclose(sp.coverage_curve(doubled, 10.0, (0.2,), 0.2), [1.0])  # hits twice count once
     assert np.isnan(sp.coverage_curve(shots, 10.0, (0.5,), 0.2)[0])  # beyond the window
+
+
+def test_a_box_field_of_view_counts_azimuth_elevation_cells_and_elevation_bands():
+    box = (170.0, 180.0, -2.0, 2.0)  # 50 x 20 cells of 0.2 deg, across the azimuth's wrap at 180
+    az, el = np.meshgrid(170.05 + 0.2 * np.arange(50), -1.95 + 0.2 * np.arange(20), indexing="ij")  # off the bin edges
+    t = np.where(az.ravel() < 175.0, 0.05, 0.15)  # half the cells by 0.1 s, all by 0.2 s
+    dirs = dirs_from_angles(np.radians(az.ravel()), np.radians(el.ravel()))
+    shots = make_shots(t, dirs, 0.0, 0.3)
+    np.testing.assert_allclose(sp.coverage_curve(shots, box, (0.01, 0.1, 0.2), 0.2), [0.0, 0.5, 1.0])
+    outside = make_shots([0.1, 0.1], dirs_from_angles(np.radians([-170.0, 175.0]), np.radians([0.0, 3.0])), 0.0, 1.0)
+    assert sp.coverage_curve(outside, box, (1.0,), 0.2)[0] == 0.0
+    profile = sp.radial_density(shots, box, bin_deg=0.5)  # 8 elevation bands of 10 deg azimuth
+    edges = np.arange(-2.0, 2.01, 0.5)
+    per_band = np.histogram(el.ravel(), edges)[0]
+    band_sr = np.radians(10.0) * np.diff(np.sin(np.radians(edges)))
+    np.testing.assert_allclose(profile.off_axis_deg, np.arange(-1.75, 2.0, 0.5))
+    np.testing.assert_allclose(profile.shots_per_sr_s, per_band / band_sr / 0.3)
 
 
 def test_shots_outside_the_field_of_view_cover_nothing():

@@ -8,7 +8,8 @@ import pytest
 import scan_patterns as sp
 from scan_patterns.shots import dirs_from_livox, head_rotation, livox_angles
 
-PRESETS = ["mid40-risley", "mid40-rose", "mid40-replay", "mid70-replay", "mid100-risley", "mid100-rose"]
+PRESETS = ["mid40-risley", "mid40-rose", "mid40-replay", "mid70-replay", "mid100-risley", "mid100-rose",
+           "avia-replay", "horizon-replay", "tele15-replay", "hap-replay", "mid360-replay"]
 
 
 def test_the_issue_presets_are_registered():
@@ -82,6 +83,10 @@ def test_risley_parameters_override_the_fitted_ones():
         ({"pattern": "risley", "params": {"index": 0.9}}, "refractive index must exceed 1"),
         ({"yaw_deg": 3}, "needs 'pattern'"),
         ({"like": "mid40-rose", "colour": "red"}, "unknown key 'colour'"),
+        ({"pattern": "rose", "lasers": 0}, "lasers must be a whole number in 1..255"),
+        ({"like": "mid360-replay", "fov_deg": 90.0}, "a head has one field of view"),
+        ({"pattern": "rose", "fov_deg": None, "fov_box_deg": (-10, 10, -5, 5)}, "rose: draws a circular field of view"),
+        ({"pattern": "risley", "fov_deg": None, "fov_box_deg": (10, -10, -5, 5)}, "fov_box_deg must be"),
     ],
 )
 def test_bad_heads_are_refused_in_one_line(spec, message):

@@ -79,11 +79,11 @@ def run(args) -> int:
         note = (
             f"simgen {__version__} pattern {args.preset}: window ({t0:g}, {t1:g}] s, density x{args.density:g}, "
             f"{sensor.shots_per_s * args.density:,.0f} shots/s; sensor frame x forward, y left, z up; "
-            "azimuth_deg about z from x towards y, zenith_deg 90 = boresight (Livox's layout); head = head index"
+            "azimuth_deg about z from x towards y, zenith_deg 90 = boresight (Livox's layout); head = head index; line = the head's laser"
         )
         try:
             with open(tmp, "wb") as f:
-                np.savez(f, t_s=shots.t_s, azimuth_deg=azimuth_deg, zenith_deg=zenith_deg, head=shots.head, note=note)
+                np.savez(f, t_s=shots.t_s, azimuth_deg=azimuth_deg, zenith_deg=zenith_deg, head=shots.head, line=shots.line, note=note)
         except OSError as error:
             raise UserError(f"{args.output}: cannot write ({error.strerror})") from None
     print(f"{args.output}: {len(shots):,} shots of {args.preset} in ({t0:g}, {t1:g}] s")

@@ -47,6 +47,7 @@ class Frame:
     sensor: NDArray[np.uint8] | None = None  # (P,)
     head: NDArray[np.uint8] | None = None  # (P,)
     sweep: NDArray[np.uint8] | None = None  # (P,) sweep of the frame (0 .. sweeps_per_frame - 1)
+    line: NDArray[np.uint8] | None = None  # (P,) laser of the head that fired the shot (Livox's `line`)
     instance_id: NDArray[np.int32] | None = None  # (P,) track id, 1000 ball, -1 none
     semantic: NDArray[np.uint8] | None = None  # (P,) index into simgen.vocab.SEMANTIC_NAMES
     team: NDArray[np.str_] | None = None  # (H,) left, right, official

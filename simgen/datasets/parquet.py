@@ -109,6 +109,7 @@ def points_table(frame: LabelledFrame) -> pa.Table:
             "sensor": np.asarray(scan.sensor, np.uint8),
             "head": np.asarray(scan.head, np.uint8),
             "sweep": np.asarray(scan.sweep, np.uint8),
+            "line": np.asarray(scan.line, np.uint8),
             "instance_id": np.asarray(scan.instance_id, np.int32),
             "semantic": np.asarray(scan.semantic, np.uint8),
         },
@@ -240,7 +241,7 @@ def _fixed(table: pa.Table, name: str, shape: tuple[int, ...]) -> NDArray[np.flo
 
 def _point_fields(points: pa.Table) -> dict[str, NDArray]:
     """A frame's `points` rows as the per-point fields `ScanFrame` and `Frame` share."""
-    fields = {name: _column(points, name) for name in ("intensity", "time_offset_s", "sensor", "head", "instance_id", "semantic", "sweep")}
+    fields = {name: _column(points, name) for name in ("intensity", "time_offset_s", "sensor", "head", "instance_id", "semantic", "sweep", "line")}
     return {"points_m": np.stack([_column(points, axis) for axis in "xyz"], axis=1), **fields}
 
 

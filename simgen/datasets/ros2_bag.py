@@ -7,7 +7,7 @@ Topics (CDR-encoded, ROS 2 Humble message definitions), each channel with rosbag
   frames too, so the k-th message of a topic is frame k), in one of three `PointLayout`s:
   `SIMGEN_LAYOUT` (the default): the `pitch` frame (metres), livox_ros_driver2's packed 26-byte point
   (`x y z` float32 at 0, 4, 8, `intensity` float32 at 12 (reflectivity 0-255), `tag` uint8 at 16 (0:
-  simgen has no return flags), `line` uint8 at 17 (the head), `timestamp` float64 at 18 (the shot's
+  simgen has no return flags), `line` uint8 at 17 (the laser that fired), `timestamp` float64 at 18 (the shot's
   time, ns, on the stamps' clock)), then simgen's own `offset_time` uint32 at 26 (ns since the header
   stamp, as Livox's CustomMsg) and `instance_id` int32 at 30 (track id, 1000 the ball, -1 nothing);
   `LIVOX_LAYOUT`: exactly the driver's 26 bytes, in the sensor's own frame (`frame_id` its name, posed
@@ -176,7 +176,7 @@ def cloud_points(frame: Frame, mask: NDArray[np.bool_] | slice, stamp_ns: int, l
     out["x"], out["y"], out["z"] = points[:, 0], points[:, 1], points[:, 2]
     out["intensity"] = np.asarray(frame.intensity)[mask]
     if layout.fields > 4:
-        out["line"] = frame.head[mask]
+        out["line"] = frame.line[mask] if frame.line is not None else 0
         offset_ns = np.rint(frame.time_offset_s[mask].astype(np.float64) * 1e9)
         out["timestamp"] = stamp_ns + offset_ns
     if layout.fields > 7:
@@ -302,7 +302,7 @@ def labelled_to_frame(frame: LabelledFrame) -> Frame:
     return Frame(
         clip=frame.clip, index=frame.index, points_m=scan.points_m, intensity=scan.intensity, boxes=labels.boxes,
         class_name=class_names(labels.team), track_id=labels.track_id, time_s=frame.time_s,
-        label_time_s=frame.label_time_s, time_offset_s=scan.time_offset_s, sensor=scan.sensor, head=scan.head,
+        label_time_s=frame.label_time_s, time_offset_s=scan.time_offset_s, sensor=scan.sensor, head=scan.head, line=scan.line,
         instance_id=scan.instance_id, discontinuity=labels.discontinuity,
     )
 
@@ -420,13 +420,13 @@ class BagReader:
             time_s=stamp_ns / 1e9, label_time_s=(label.sec * 1_000_000_000 + label.nanosec) / 1e9,
             time_offset_s=(points["offset_time"] / 1e9).astype(np.float32),
             sensor=np.concatenate([np.full(len(a), s, np.uint8) for s, a in arrays]) if arrays else None,
-            head=points["line"].copy(), instance_id=points["instance_id"].copy(),
+            line=points["line"].copy(), instance_id=points["instance_id"].copy(),
         )
 
 
 def card_lines() -> list[str]:
     """The dataset card's layout section for an `mcap` dataset."""
-    meaning = ["metres, pitch frame", "", "", "reflectivity 0-255", "0 (no return flags)", "head of the sensor",
+    meaning = ["metres, pitch frame", "", "", "reflectivity 0-255", "0 (no return flags)", "laser of the head that fired",
                "shot time, ns (header stamp + offset_time)", "ns since the header stamp", "track id, 1000 ball, -1 none"]
     rows = [f"| `{name}` | {offset} | {DATATYPE_NAMES[kind]} | {text} |" for (name, offset, kind, _), text in zip(POINT_FIELDS, meaning)]
     qos = {topic: profile.durability.name.lower() for topic, profile in QOS_PROFILES.items()}

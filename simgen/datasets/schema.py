@@ -19,9 +19,10 @@ import pyarrow as pa
 
 from simgen.vocab import BALL_INSTANCE_ID, KEYPOINT_NAMES, NUM_KEYPOINTS, SEMANTIC_NAMES
 
-SCHEMA_VERSION = 5  # 2: `clip` and `frame` columns in every per-clip table, `sensors` once per dataset, points.sweep;
+SCHEMA_VERSION = 6  # 2: `clip` and `frame` columns in every per-clip table, `sensors` once per dataset, points.sweep;
 #                    3: `points` row groups of 10 frames instead of one each; 4: boxes.discontinuity;
-#                    5: each clip's `start_s` in the manifest (the frames' game time in every format), a `units` table
+#                    5: each clip's `start_s` in the manifest (the frames' game time in every format), a `units` table;
+#                    6: points.line
 METADATA_KEY = b"simgen.dataset"
 PITCH_FRAME = "pitch: origin at the centre spot, x towards the right team's goal, y left, z up; metres"
 BOX_CONVENTION = (
@@ -67,6 +68,7 @@ POINTS = pa.schema(
         _field("sensor", pa.uint8(), "sensor index in the scenario (sensors.sensor_id)"),
         _field("head", pa.uint8(), "head index in its sensor"),
         _field("sweep", pa.uint8(), "sweep of the frame the shot belongs to, 0 .. sensors.sweeps_per_frame - 1 (time order)"),
+        _field("line", pa.uint8(), "laser of the head that fired the shot (Livox's `line`): shot k of a head fires laser (k - 1) mod its lasers"),
         _field(
             "instance_id",
             pa.int32(),

@@ -1,8 +1,9 @@
 """Scan-pattern fidelity: each head of a sensor preset against Livox's official file of its type.
 
-A head is compared over the official file's window, (0, 4] s of head time, in its own frame:
-coverage curves, radial density and points on a person-sized target (`scan_patterns.metrics`).
-A head whose field of view matches no official file is reported, not failed.
+A head is compared over the official file's window, (0, 4] s of head time or as much as the file
+holds (the shipped excerpts: 0.5 s), in its own frame: coverage curves, radial density and points
+on a person-sized target (`scan_patterns.metrics`). A head whose kind Livox ships no file for
+(`scan_patterns.official_table`) is reported, not failed.
 """
 
 from __future__ import annotations
@@ -13,13 +14,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 import scan_patterns as sp
-from scan_patterns.metrics import projected_deg
 from scan_patterns.replay import load_pattern_file
-from simgen.qa.checks import Check
+from simgen.qa.checks import Check, plural
 from simgen.qa.tolerances import PatternTolerances
 
-#: Livox's official files by the full field-of-view cone angle of the head they record (degrees).
-REFERENCE_BY_FOV_DEG = {38.4: "mid40", 70.4: "mid70"}
 WINDOW_S = 4.0  # the official files' length
 FRAME_S = 0.1  # one 10 Hz frame
 ACCUMULATED_S = 0.5
@@ -42,21 +40,13 @@ class HeadQA:
 
     subject: str  # e.g. "mid100-risley head 2"
     head: sp.HeadSpec
-    shots: sp.Shots  # head frame, (0, WINDOW_S]
-    reference: str | None  # official file name (mid40, mid70), None if there is none
+    shots: sp.Shots  # head frame, (0, the reference's length or WINDOW_S]
+    reference: str | None  # official file name (mid40, avia, ...), None if there is none
     reference_shots: sp.Shots | None
     comparison: sp.PatternComparison | None
     by_range: tuple[TargetCurve, TargetCurve] | None  # head, reference; at TARGET_RANGES_M on axis
     by_off_axis: tuple[TargetCurve, TargetCurve] | None  # head, reference; at TARGET_OFF_AXIS_DEG, TARGET_AT_M
     checks: tuple[Check, ...]
-
-
-def reference_for(head: sp.HeadSpec) -> str | None:
-    """The official file of the head's type, by field of view; None if Livox ships none."""
-    for fov_deg, name in REFERENCE_BY_FOV_DEG.items():
-        if abs(head.fov_deg - fov_deg) < 1e-6:
-            return name
-    return None
 
 
 def target_curve(shots: sp.Shots, targets: list[tuple[float, float]]) -> TargetCurve:
@@ -92,7 +82,8 @@ def pattern_checks(subject: str, head: sp.HeadSpec, reference: str, c: sp.Patter
                             f"<= {tol.coverage_points:g} points", abs(diff) <= tol.coverage_points))
     a, b = (p.shots_per_sr_s for p in c.radial)
     i, diff = _worst(a, b, relative=True)
-    checks.append(Check(subject, "radial density", f"{diff:+.2%} at {c.radial[0].off_axis_deg[i]:g} deg off-axis",
+    where = "off-axis" if head.fov_box_deg is None else "elevation"
+    checks.append(Check(subject, "radial density", f"{diff:+.2%} at {c.radial[0].off_axis_deg[i]:g} deg {where}",
                         f"<= {tol.radial_density_rel:.0%}", abs(diff) <= tol.radial_density_rel))
     a, b = c.target_points
     i, diff = _worst(a, b, relative=True)
@@ -104,16 +95,20 @@ def pattern_checks(subject: str, head: sp.HeadSpec, reference: str, c: sp.Patter
 
 
 def head_qa(subject: str, head: sp.HeadSpec, tol: PatternTolerances) -> HeadQA:
-    """One head's shots over (0, 4] s against its official file."""
-    shots = sp.head_shots(head, 0.0, WINDOW_S)
-    reference = reference_for(head)
+    """One head's shots over (0, 4] s, or as long as its official file is, against that file."""
+    reference = sp.official_table(head)
     if reference is None:
-        check = Check(subject, "official pattern", f"Livox ships no file for a {head.fov_deg:g} deg head", "", None)
+        shots = sp.head_shots(head, 0.0, WINDOW_S)
+        kind = f"{head.fov_deg:g} deg" if head.fov_box_deg is None else f"{head.fov_box_deg} deg box"
+        lasers = f" with {plural(head.lasers, 'laser')}" if head.lasers > 1 else ""
+        check = Check(subject, "official pattern", f"Livox ships no file for a {kind} head{lasers}", "", None)
         return HeadQA(subject, head, shots, None, None, None, None, None, (check,))
     ref = sp.file_shots(reference)
-    comparison = sp.compare(shots, ref, head.fov_deg, (subject, f"official {reference}"))
+    shots = sp.head_shots(head, 0.0, min(WINDOW_S, ref.t1_s))
+    comparison = sp.compare(shots, ref, head.field_of_view, (subject, f"official {reference}"))
     by_range = [(r, 0.0) for r in TARGET_RANGES_M]
-    by_angle = [(TARGET_AT_M, a) for a in TARGET_OFF_AXIS_DEG if a < head.fov_deg / 2]
+    az_lo, az_hi = head.extent_deg[:2]
+    by_angle = [(TARGET_AT_M, a) for a in TARGET_OFF_AXIS_DEG if a < min(-az_lo, az_hi)]
     return HeadQA(
         subject=subject,
         head=head,
@@ -132,7 +127,7 @@ def sensor_qa(name: str, sensor: sp.SensorSpec, tol: PatternTolerances) -> list[
     return [head_qa(f"{name} head {i}", head, tol) for i, head in enumerate(sensor.heads)]
 
 
-def window(shots: sp.Shots, seconds: float) -> NDArray[np.float64]:
-    """(N, 2) projected coordinates (degrees) of the shots of the first `seconds`."""
+def window(shots: sp.Shots, seconds: float, fov: sp.FieldOfView) -> NDArray[np.float64]:
+    """(N, 2) coordinates (degrees) in the projection of `fov` of the shots of the first `seconds`."""
     keep = shots.t_s <= shots.t0_s + seconds + 1e-9
-    return projected_deg(shots.dirs[keep])
+    return sp.field_coords(shots.dirs[keep], fov)

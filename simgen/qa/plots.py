@@ -13,6 +13,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402 - after choosing the backend
 import numpy as np  # noqa: E402
 
+from scan_patterns import HeadSpec  # noqa: E402
 from simgen.atomic import atomic_path  # noqa: E402
 from simgen.qa.dataset import DatasetQA  # noqa: E402
 from simgen.qa.pattern import ACCUMULATED_S, FRAME_S, TARGET_AT_M, TARGET_OFF_AXIS_DEG, TARGET_RANGES_M, HeadQA, window  # noqa: E402
@@ -32,27 +33,33 @@ def _references(heads: list[HeadQA]) -> dict[str, HeadQA]:
     return {h.reference: h for h in reversed(heads) if h.reference is not None}
 
 
-def _pattern_panel(ax, uv: np.ndarray, fov_deg: float, title: str) -> None:
+def _pattern_panel(ax, uv: np.ndarray, head: HeadSpec, title: str) -> None:
     ax.scatter(uv[:, 0], uv[:, 1], s=0.2, c=np.arange(len(uv)), cmap="viridis", linewidths=0, rasterized=True)
-    ax.add_patch(plt.Circle((0, 0), fov_deg / 2, fill=False, color="grey", linewidth=0.8))
+    az_lo, az_hi, el_lo, el_hi = head.extent_deg
+    if head.fov_box_deg is None:
+        ax.add_patch(plt.Circle((0, 0), head.fov_deg / 2, fill=False, color="grey", linewidth=0.8))
+        ax.set_xlabel("off-axis angle towards +y (left), deg")
+        ax.set_ylabel("off-axis angle towards +z (up), deg")
+    else:
+        ax.add_patch(plt.Rectangle((az_lo, el_lo), az_hi - az_lo, el_hi - el_lo, fill=False, color="grey", linewidth=0.8))
+        ax.set_xlabel("azimuth (+ left), deg")
+        ax.set_ylabel("elevation (+ up), deg")
     ax.set_aspect("equal")
-    ax.set_xlim(fov_deg / 2 + 1, -fov_deg / 2 - 1)  # +y (left) on the left: seen from behind the head
-    ax.set_ylim(-fov_deg / 2 - 1, fov_deg / 2 + 1)
-    ax.set_xlabel("off-axis angle towards +y (left), deg")
-    ax.set_ylabel("off-axis angle towards +z (up), deg")
+    ax.set_xlim(az_hi + 1, az_lo - 1)  # +y (left) on the left: seen from behind the head
+    ax.set_ylim(el_lo - 1, el_hi + 1)
     ax.set_title(title, fontsize=10)
 
 
 def shot_patterns(heads: list[HeadQA], path: Path) -> None:
     """Each head's shots in one 10 Hz frame and in 0.5 s, and each official file's, head frame."""
-    rows = [(h.subject, h.shots, h.head.fov_deg) for h in heads]
-    rows += [(f"official {name}", h.reference_shots, h.head.fov_deg) for name, h in _references(heads).items()]
+    rows = [(h.subject, h.shots, h.head) for h in heads]
+    rows += [(f"official {name}", h.reference_shots, h.head) for name, h in _references(heads).items()]
     fig, axes = plt.subplots(len(rows), 2, figsize=(10, 4.8 * len(rows)), squeeze=False, layout="constrained")
-    for (name, shots, fov), row in zip(rows, axes):
+    for (name, shots, head), row in zip(rows, axes):
         for ax, seconds in zip(row, (FRAME_S, ACCUMULATED_S)):
-            uv = window(shots, seconds)
-            _pattern_panel(ax, uv, fov, f"{name}: {seconds:g} s, {len(uv):,} shots")
-    fig.suptitle("Shot pattern seen from behind the head (azimuthal-equidistant; colour: time, dark = early)")
+            uv = window(shots, seconds, head.field_of_view)
+            _pattern_panel(ax, uv, head, f"{name}: {seconds:g} s, {len(uv):,} shots")
+    fig.suptitle("Shot pattern seen from behind the head (cones: azimuthal-equidistant; boxes: azimuth and elevation; colour: time, dark = early)")
     _save(fig, path)
 
 
@@ -91,12 +98,12 @@ def radial_density(heads: list[HeadQA], path: Path, tolerance_rel: float) -> Non
         top.plot(ref.off_axis_deg, ref.shots_per_sr_s, label=f"official {name}", **REFERENCE_STYLE)
     top.set_yscale("log")
     top.set_ylabel("shots per sr per s")
-    top.set_title("Radial density: shots per solid angle and second in 0.5 deg rings")
+    top.set_title("Radial density: shots per solid angle and second in 0.5 deg rings (cones) or elevation bands (boxes)")
     top.legend(fontsize=8)
     top.grid(True, which="both", alpha=0.3)
     bottom.axhspan(-tolerance_rel * 100, tolerance_rel * 100, color="green", alpha=0.12, label="tolerance")
     bottom.axhline(0, color="black", linewidth=0.8)
-    bottom.set_xlabel("off-axis angle, deg")
+    bottom.set_xlabel("off-axis angle (cones) or elevation (boxes), deg")
     bottom.set_ylabel("difference from official, %")
     bottom.legend(fontsize=8)
     bottom.grid(True, alpha=0.3)

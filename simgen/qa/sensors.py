@@ -25,7 +25,7 @@ class SensorGeometry:
     origin_m: NDArray[np.float64]  # (3,)
     rotation: NDArray[np.float64]  # (3, 3) sensor frame -> pitch frame
     boresights: NDArray[np.float64]  # (heads, 3) unit vectors, sensor frame
-    half_fov_deg: NDArray[np.float64]  # (heads,)
+    half_fov_deg: NDArray[np.float64]  # (heads,) half angle of the cone about each boresight holding its field of view
 
     @property
     def boresight_azimuth_rad(self) -> NDArray[np.float64]:
@@ -56,7 +56,7 @@ def sensor_geometry(info: dict, scenario: dict) -> SensorGeometry:
         origin_m=np.array([x, y, z], np.float64),
         rotation=sensor_rotation(SensorPose(x=x, y=y, z=z, roll=roll, pitch=pitch, yaw=yaw)),
         boresights=np.array([head_rotation(h.yaw_deg, h.pitch_deg)[:, 0] for h in spec.heads]),
-        half_fov_deg=np.array([h.fov_deg / 2 for h in spec.heads]),
+        half_fov_deg=np.array([h.half_cone_deg for h in spec.heads]),
     )
 
 

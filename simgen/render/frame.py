@@ -46,10 +46,13 @@ class ScanFrame:
     dropped: int  # returns lost to random dropout
     missed: int  # shots with no return in range (sky, too near, too far for the reflectivity)
     sweep: NDArray[np.uint8] = field(default=None)  # (P,) sweep of the frame the shot belongs to; default all 0
+    line: NDArray[np.uint8] = field(default=None)  # (P,) laser of the head that fired the shot; default all 0
 
     def __post_init__(self) -> None:
         if self.sweep is None:  # one sweep per frame
             object.__setattr__(self, "sweep", np.zeros(len(self.points_m), np.uint8))
+        if self.line is None:  # one laser per head
+            object.__setattr__(self, "line", np.zeros(len(self.points_m), np.uint8))
 
 
 def expand_subrays(rays: Rays, noise: NoiseConfig) -> Rays:
@@ -64,7 +67,7 @@ def expand_subrays(rays: Rays, noise: NoiseConfig) -> Rays:
     spread = d[:, None] + offsets[None, :, 0, None] * horizontal[:, None] + offsets[None, :, 1, None] * vertical[:, None]
     spread /= np.linalg.norm(spread, axis=2, keepdims=True)
     shot = np.repeat(np.arange(len(d)), len(offsets))
-    return Rays(rays.origin_m[shot], spread.reshape(-1, 3), rays.time_s[shot], rays.sensor[shot], rays.head[shot], rays.sweep[shot])
+    return Rays(rays.origin_m[shot], spread.reshape(-1, 3), rays.time_s[shot], rays.sensor[shot], rays.head[shot], rays.sweep[shot], rays.line[shot])
 
 
 @numba.njit(cache=True)
@@ -202,6 +205,7 @@ def render_frame(
         sensor=rays.sensor[shot],
         head=rays.head[shot],
         sweep=rays.sweep[shot],
+        line=rays.line[shot],
         instance_id=hit["instance"][k],
         semantic=hit["semantic"][k],
         shots=len(rays.time_s),

@@ -63,13 +63,14 @@ def frame_rays(scenario: Scenario, specs: list[scan_patterns.SensorSpec], frame_
             shots = scan_patterns.head_shots(head, t0, t1, scan.density, index)
             heads.append((i, index, shots, to_pitch @ head_rotation(head.yaw_deg, head.pitch_deg)))
     n = sum(len(shots) for _, _, shots, _ in heads)
-    rays = Rays(np.empty((n, 3)), np.empty((n, 3)), np.empty(n), np.empty(n, np.uint8), np.empty(n, np.uint8), np.empty(n, np.uint8))
+    rays = Rays(np.empty((n, 3)), np.empty((n, 3)), np.empty(n), np.empty(n, np.uint8), np.empty(n, np.uint8), np.empty(n, np.uint8), np.empty(n, np.uint8))
     start = 0
     for i, index, shots, rotation in heads:
         pose = scenario.sensors[i].pose
         origin = np.array([pose.x, pose.y, pose.z])
         _fill_head(rays.origin_m, rays.direction, rays.time_s, rays.sensor, rays.head, start, shots.dirs, shots.t_s, rotation, origin, clip_start_s, i, index)
         rays.sweep[start : start + len(shots)] = scan_patterns.sweep_index(shots.t_s, t0, scan.frame_rate_hz, scan.sweeps_per_frame)
+        rays.line[start : start + len(shots)] = shots.line
         start += len(shots)
     return rays
 
