@@ -38,3 +38,20 @@ def test_help_and_validate_import_no_heavy_library(arguments):
     assert imported & set(HEAVY) == set()
     if "--help" in arguments and arguments[0] != "pattern":  # the preset list and scenarios need scan_patterns (numba)
         assert "numba" not in imported
+
+
+def test_reading_datasets_and_training_need_no_writer_libraries():
+    """In a Python without mcap, mcap-ros2-support, rosbags, Open3D or trimesh (a training machine),
+    `simgen.datasets` and `train.cli` import: the bag writer and reader import theirs when used."""
+    blocked = ("mcap", "mcap_ros2", "rosbags", "open3d", "trimesh")
+    probe = (
+        "import importlib.abc, sys\n"
+        "class Block(importlib.abc.MetaPathFinder):\n"
+        f"    def find_spec(self, name, path, target=None):\n"
+        f"        if name.split('.')[0] in {blocked!r}: raise ImportError('blocked: ' + name)\n"
+        "sys.meta_path.insert(0, Block())\n"
+        "import simgen.datasets, train.cli, train.study\n"
+        "print('imported')\n"
+    )
+    result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0 and result.stdout == "imported\n", result.stderr[-2000:]

@@ -124,3 +124,35 @@ def test_usage_errors_are_one_line(capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["fit"])
     assert exit_.value.code == 2 and capsys.readouterr().err.count("\n") == 1
+
+
+@pytest.mark.engine
+def test_a_fit_stopped_and_resumed_ends_with_the_uninterrupted_weights(trained, tmp_path, capsys):
+    """6 iterations at once, and the same fit stopped at 2 then resumed (with a learning curve and a log
+    every iteration): equal weights, optimiser state and learning curve; the log goes on where it stopped."""
+    import torch
+
+    from train.checkpoint import load_checkpoint
+
+    dataset, _ = trained
+    raw = tiny_config("late", iterations=6, eval_every=3).model_dump(mode="json")
+    raw["data"]["split"] = "frame"  # a val window in the one-clip dataset, for the learning curve
+    config = tmp_path / "tiny.yaml"
+    config.write_text(yaml.safe_dump(raw))
+    whole, parts = tmp_path / "whole", tmp_path / "parts"
+    assert call_train(capsys, "fit", config, "--dataset", dataset, "-o", whole, "--quiet")[0] == 0
+    assert call_train(capsys, "fit", config, "--dataset", dataset, "-o", parts, "--quiet", "--stop-at", 2)[0] == 0
+    assert load_checkpoint(parts / "checkpoint.pt").iteration == 2
+    assert call_train(capsys, "fit", config, "--dataset", dataset, "-o", parts, "--quiet", "--resume")[0] == 0
+    a, b = load_checkpoint(whole / "checkpoint.pt"), load_checkpoint(parts / "checkpoint.pt")
+    assert a.iteration == b.iteration == 6
+    for name, weight in a.model.items():
+        assert torch.equal(weight, b.model[name]), name
+    assert a.optimizer["state"].keys() == b.optimizer["state"].keys()
+    for key, state in a.optimizer["state"].items():
+        assert all(torch.equal(v, b.optimizer["state"][key][k]) for k, v in state.items())
+    assert [r["iteration"] for r in csv.DictReader(open(parts / "train_log.csv"))] == [str(i) for i in range(1, 7)]
+    curve = [(r["iteration"], r["3d_r40"]) for r in csv.DictReader(open(parts / "learning_curve.csv"))]
+    assert curve == [(r["iteration"], r["3d_r40"]) for r in csv.DictReader(open(whole / "learning_curve.csv"))]
+    code, err = call_train(capsys, "fit", config, "--dataset", dataset, "-o", parts, "--quiet", "--resume")
+    assert code == 2 and err.strip().endswith("already at iteration 6 of 6: nothing to resume")

@@ -69,8 +69,12 @@ def _fit(args: argparse.Namespace) -> int:
     changes = {k: v for k, v in (("iterations", args.iterations), ("workers", args.workers)) if v is not None}
     if changes:
         config = config.model_copy(update={"train": config.train.model_copy(update=changes)})
-    result = fit(config, _dataset(args.dataset), Path(args.output), _device(args.device), not args.quiet)
+    result = fit(config, _dataset(args.dataset), Path(args.output), _device(args.device), not args.quiet,
+                 resume=args.resume, stop_at=args.stop_at, stop_after_s=args.stop_after)
     print(f"{result.checkpoint}: {result.iterations} iterations, {result.samples_per_s:.2f} samples/s")
+    if result.stopped:
+        print(f"stopped at iteration {result.iterations} of {config.train.iterations}: run the same command with "
+              "--resume to continue")
     return 0
 
 
@@ -166,6 +170,11 @@ def build_parser() -> argparse.ArgumentParser:
     common(p)
     p.add_argument("--iterations", type=int, help="override train.iterations")
     p.add_argument("--workers", type=int, help="override train.workers (loader processes)")
+    p.add_argument("--resume", action="store_true", help="continue the fit in OUTPUT from its checkpoint (weights, "
+                   "optimiser, schedule and sample stream): the same weights as one uninterrupted fit")
+    p.add_argument("--stop-at", type=int, metavar="ITERATION", help="checkpoint at this iteration and stop (then --resume)")
+    p.add_argument("--stop-after", type=float, metavar="SECONDS", help="checkpoint once this run has trained this long "
+                   "and stop (then --resume): a long fit as several commands under a time limit")
     p.set_defaults(func=_fit)
 
     for name, func, text in (("eval", _eval, "detection AP (BEV, 3D; IoU 0.5; R40 and R11) into ap.csv"),

@@ -220,13 +220,14 @@ class SampleSet(torch.utils.data.Dataset):
     """
 
     def __init__(self, path: str, split: str | None, config: DetectorConfig, draws: int | None = None,
-                 assign: Assign | None = None) -> None:
+                 assign: Assign | None = None, first_draw: int = 0) -> None:
         self.path, self.config, self.draws, self.assign = path, config, draws, assign
+        self.first_draw = first_draw  # a resumed fit's stream starts where the interrupted one stopped
         self.keys = sample_keys(simgen.datasets.open(path), split, config.data.split)
         self._dataset: simgen.datasets.Dataset | None = None  # opened again in each worker process
 
     def __len__(self) -> int:
-        return self.draws if self.draws is not None else len(self.keys)
+        return self.draws - self.first_draw if self.draws is not None else len(self.keys)
 
     def key(self, item: int) -> tuple[str, int]:
         if self.draws is None:
@@ -235,6 +236,7 @@ class SampleSet(torch.utils.data.Dataset):
         return self.keys[np.random.default_rng([self.config.seed, epoch]).permutation(len(self.keys))[within]]
 
     def __getitem__(self, item: int) -> Encoded:
+        item += self.first_draw
         if self._dataset is None:
             self._dataset = simgen.datasets.open(self.path)
         sample = load_sample(self._dataset, *self.key(item), self.config)

@@ -16,11 +16,12 @@ from pathlib import Path
 import torch
 from tqdm import tqdm
 
-from train.checkpoint import Checkpoint, save_checkpoint
-from train.config import DetectorConfig
+from simgen.errors import UserError
+from train.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
+from train.config import DetectorConfig, same_weights
 from train.data import SampleSet, loader
 from train.evaluate import average_precisions, mean_ap, predict
-from train.learning_curve import CurvePoint, write_curve
+from train.learning_curve import CurvePoint, read_curve, write_curve
 from train.losses import detection_loss
 from train.models.detector import Detector, build_detector
 
@@ -47,8 +48,9 @@ def autocast(device: torch.device, mode: str) -> contextlib.AbstractContextManag
 @dataclass(frozen=True)
 class FitResult:
     checkpoint: Path
-    iterations: int
-    samples_per_s: float  # training samples (frames t) per second of wall time, loading included, val passes not
+    iterations: int  # done so far (fewer than the config's when stopped early)
+    samples_per_s: float  # training samples (frames t) per second of wall time in this run, loading included, val passes not
+    stopped: bool = False  # by `stop_at` or `stop_after_s`: `fit(..., resume=True)` continues
 
 
 def _val_point(model: Detector, config: DetectorConfig, dataset: str, device: torch.device, iteration: int) -> CurvePoint:
@@ -58,38 +60,70 @@ def _val_point(model: Detector, config: DetectorConfig, dataset: str, device: to
     return CurvePoint(iteration, rows, time.perf_counter() - start)
 
 
-def fit(config: DetectorConfig, dataset: str, out: Path, device: torch.device, progress: bool = True) -> FitResult:
+def _resumed(out: Path, config: DetectorConfig, model: Detector, optimizer: torch.optim.Optimizer) -> int:
+    """Load OUT's checkpoint into model and optimiser; the iteration it was saved at. It must hold a fit of
+    the same config (weights-wise) that has iterations left."""
+    path = out / CHECKPOINT_NAME
+    saved = load_checkpoint(path)
+    if not same_weights(saved.config, config):
+        raise UserError(f"{path}: a fit of another config ({saved.config.name}); --resume continues the same one")
+    if saved.optimizer is None:
+        raise UserError(f"{path}: holds no optimiser state (weights only), so it cannot be resumed")
+    if saved.iteration >= config.train.iterations:
+        raise UserError(f"{path}: already at iteration {saved.iteration} of {config.train.iterations}: nothing to resume")
+    model.load_state_dict(saved.model)
+    optimizer.load_state_dict(saved.optimizer)
+    return saved.iteration
+
+
+def _log_rows(out: Path, until: int) -> tuple[list[dict], list[tuple[int, float]]]:
+    """A resumed fit's earlier log rows (up to `until`) and their losses."""
+    with open(out / LOG_NAME, newline="") as file:
+        rows = [row for row in csv.DictReader(file) if int(row["iteration"]) <= until]
+    return rows, [(int(row["iteration"]), float(row["loss"])) for row in rows]
+
+
+def fit(config: DetectorConfig, dataset: str, out: Path, device: torch.device, progress: bool = True, *,
+        resume: bool = False, stop_at: int | None = None, stop_after_s: float | None = None) -> FitResult:
     """Train for `config.train.iterations` batches on the dataset's `train` clips; write into `out`.
 
     With `train.eval_every`, also score the val clips every that many iterations and after the
-    last one (learning_curve.csv and .png); the weights do not depend on it.
+    last one (learning_curve.csv and .png); the weights do not depend on it. `resume`: continue the
+    fit in `out` from its checkpoint (weights, optimiser, schedule, the stream of samples), to the
+    same weights an uninterrupted fit reaches. `stop_at` (an iteration) or `stop_after_s` (seconds of
+    this run): checkpoint there and stop, to be resumed.
     """
     train = config.train
     model = build_detector(config).to(device).train()
     assigner = model.head.assigner
-    samples = SampleSet(dataset, "train", config, draws=train.iterations * train.batch_size, assign=assigner)
+    optimizer = torch.optim.AdamW(model.parameters(), lr=train.lr, betas=(0.95, 0.99), weight_decay=train.weight_decay)
+    first = _resumed(out, config, model, optimizer) if resume else 0
+    samples = SampleSet(dataset, "train", config, draws=train.iterations * train.batch_size, assign=assigner,
+                        first_draw=first * train.batch_size)
     if train.eval_every:
         SampleSet(dataset, "val", config)  # no val clips: say so now, not after training
-    optimizer = torch.optim.AdamW(model.parameters(), lr=train.lr, betas=(0.95, 0.99), weight_decay=train.weight_decay)
     out.mkdir(parents=True, exist_ok=True)
     fields = ["iteration", "seconds", "samples_per_s", "lr", "loss", "loss_cls", "loss_dir"]
     fields += [f"loss_loc_{k}" for k in range(config.model.head.tracklet_boxes)]
     cuda = device.type == "cuda"
-    curve: list[CurvePoint] = []
-    losses: list[tuple[int, float]] = []
+    earlier, losses = _log_rows(out, first) if resume else ([], [])
+    curve: list[CurvePoint] = read_curve(out, first) if resume else []
+    last = min(train.iterations, stop_at) if stop_at is not None else train.iterations
 
     def save(iteration: int) -> Path:
         path = out / CHECKPOINT_NAME
         save_checkpoint(path, Checkpoint(config, model.state_dict(), optimizer.state_dict(), iteration))
         return path
 
-    start, val_s = time.perf_counter(), 0.0
-    with open(out / LOG_NAME, "w", newline="") as log_file:
+    start, val_s, done = time.perf_counter(), 0.0, first
+    with open(out / LOG_NAME, "w", newline="") as log_file:  # flushed row by row, for a reader to follow
         log = csv.DictWriter(log_file, fieldnames=fields)
         log.writeheader()
+        log.writerows(earlier)
         batches = loader(samples, train.batch_size, train.workers, assigner.collate, pin_memory=cuda)
-        bar = tqdm(batches, total=train.iterations, desc=f"fit {config.name}", unit="it", disable=not progress, dynamic_ncols=True)
-        for step, batch in enumerate(bar):
+        bar = tqdm(batches, initial=first, total=train.iterations, desc=f"fit {config.name}", unit="it",
+                   disable=not progress, dynamic_ncols=True)
+        for step, batch in enumerate(bar, start=first):
             lr = one_cycle_lr(step, train.iterations, train.lr)
             for group in optimizer.param_groups:
                 group["lr"] = lr
@@ -107,7 +141,7 @@ def fit(config: DetectorConfig, dataset: str, out: Path, device: torch.device, p
                 losses.append((done, values["loss"]))
                 seconds = time.perf_counter() - start
                 log.writerow({"iteration": done, "seconds": f"{seconds:.2f}",
-                              "samples_per_s": f"{done * train.batch_size / (seconds - val_s):.3f}",
+                              "samples_per_s": f"{(done - first) * train.batch_size / (seconds - val_s):.3f}",
                               "lr": f"{lr:.6g}", **{k: f"{v:.5f}" for k, v in values.items()}})
                 log_file.flush()
                 bar.set_postfix(loss=f"{values['loss']:.3f}", cls=f"{values['loss_cls']:.3f}")
@@ -116,7 +150,10 @@ def fit(config: DetectorConfig, dataset: str, out: Path, device: torch.device, p
                 val_s += curve[-1].eval_s
                 write_curve(out, curve, losses, f"{config.name}: AP on val while training")
                 bar.set_postfix(loss=f"{terms.as_floats()['loss']:.3f}", ap3d=f"{mean_ap(curve[-1].rows, '3d'):.1f}")
-            if done % train.checkpoint_every == 0 and done < train.iterations:
+            out_of_time = stop_after_s is not None and time.perf_counter() - start >= stop_after_s
+            if done == last or out_of_time:
+                break
+            if done % train.checkpoint_every == 0:
                 save(done)
     seconds = time.perf_counter() - start - val_s
-    return FitResult(save(train.iterations), train.iterations, train.iterations * train.batch_size / seconds)
+    return FitResult(save(done), done, (done - first) * train.batch_size / max(seconds, 1e-9), done < train.iterations)

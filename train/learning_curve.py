@@ -64,6 +64,23 @@ def plot_curve(points: list[CurvePoint], losses: list[tuple[int, float]], title:
     plt.close(fig)
 
 
+def read_curve(out: Path, until: int) -> list[CurvePoint]:
+    """The points of OUT/learning_curve.csv up to iteration `until` (a fit resumed there), as far as the CSV
+    keeps them: the AP of the box at t, all labelled boxes."""
+    path = out / CSV_NAME
+    if not path.is_file():
+        return []
+    points = []
+    with open(path, newline="") as file:
+        for row in csv.DictReader(file):
+            if int(row["iteration"]) > until:
+                break
+            count = dict(truth=int(row["truth"]), detections=int(row["detections"]))
+            rows = [ApRow("t", iou, n, float(row[f"{iou}_r{n}"]), **count) for n in (40, 11) for iou in ("bev", "3d")]
+            points.append(CurvePoint(int(row["iteration"]), rows, float(row["eval_s"])))
+    return points
+
+
 def write_curve(out: Path, points: list[CurvePoint], losses: list[tuple[int, float]], title: str) -> list[Path]:
     """OUT/learning_curve.csv and .png, written atomically."""
     with atomic_path(out / CSV_NAME) as tmp:

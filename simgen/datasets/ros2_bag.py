@@ -1,5 +1,8 @@
 """A clip as a ROS 2 bag in MCAP (`mcap` + `mcap-ros2-support`, no ROS install), as Livox users record theirs.
 
+The mcap, mcap-ros2-support and rosbags packages are imported only by the functions that write or read a
+bag, so that reading a dataset of another format (or training on one) does not need them.
+
 Topics (CDR-encoded, ROS 2 Humble message definitions), each channel with rosbag2's
 `offered_qos_profiles` metadata (`QOS_PROFILES`), which `ros2 bag play` offers again:
 
@@ -35,15 +38,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
 import numpy as np
-from mcap.reader import make_reader
-from mcap.well_known import SchemaEncoding
-from mcap.writer import Writer
-from mcap_ros2._dynamic import serialize_dynamic  # mcap-ros2-support's CDR encoder (its Writer cannot give channels metadata)
-from mcap_ros2.decoder import DecoderFactory
 from numpy.typing import NDArray
-from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
-from rosbags.rosbag2.metadata import dump_qos_v8
-from rosbags.typesys import Stores, get_typestore
 
 from simgen import __version__
 from simgen.atomic import atomic_path
@@ -109,24 +104,25 @@ DISCONTINUITY_NAMESPACE = "discontinuity"  # markers of boxes whose humanoid the
 SCHEMAS = ("sensor_msgs/msg/PointCloud2", "visualization_msgs/msg/MarkerArray", "tf2_msgs/msg/TFMessage")
 
 
-def _qos(depth: int, durability: QosDurability) -> Qos:
-    """A reliable keep-last profile; deadline, lifespan and lease 0 (rmw's default: none)."""
-    never = QosTime(0, 0)
-    return Qos(QosHistory.KEEP_LAST, depth, QosReliability.RELIABLE, durability, never, never, QosLiveliness.AUTOMATIC, never, False)
-
-
-#: What each topic's publisher offers: points as livox_ros_driver2 publishes a lidar's PointCloud2
-#: (rclcpp's default reliable, volatile, keep last 64), boxes as an rclcpp publisher of depth 10, and the
-#: static transforms as tf2_ros's StaticTransformBroadcaster (transient local, keep last 1), so that RViz
-#: and tf2, which subscribe to /tf_static transient local, get them from `ros2 bag play`.
-QOS_PROFILES = {"points": _qos(64, QosDurability.VOLATILE), BOXES_TOPIC: _qos(10, QosDurability.VOLATILE),
-                TF_STATIC_TOPIC: _qos(1, QosDurability.TRANSIENT_LOCAL)}
+#: What each topic's publisher offers, (keep-last depth, durability), all reliable: points as
+#: livox_ros_driver2 publishes a lidar's PointCloud2 (rclcpp's default reliable, volatile, keep last 64),
+#: boxes as an rclcpp publisher of depth 10, and the static transforms as tf2_ros's
+#: StaticTransformBroadcaster (transient local, keep last 1), so that RViz and tf2, which subscribe to
+#: /tf_static transient local, get them from `ros2 bag play`.
+QOS_PROFILES = {"points": (64, "VOLATILE"), BOXES_TOPIC: (10, "VOLATILE"), TF_STATIC_TOPIC: (1, "TRANSIENT_LOCAL")}
 
 
 def offered_qos_profiles(topic: str) -> str:
     """The channel metadata value rosbag2 writes for `topic`: its publishers' profiles as YAML (the
     integer enums of rosbag2 before metadata version 9, which every later rosbag2 still reads)."""
-    return dump_qos_v8([QOS_PROFILES.get(topic, QOS_PROFILES["points"])])
+    from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+    from rosbags.rosbag2.metadata import dump_qos_v8
+
+    depth, durability = QOS_PROFILES.get(topic, QOS_PROFILES["points"])
+    never = QosTime(0, 0)  # deadline, lifespan and lease 0: rmw's default, none
+    profile = Qos(QosHistory.KEEP_LAST, depth, QosReliability.RELIABLE, QosDurability[durability], never, never,
+                  QosLiveliness.AUTOMATIC, never, False)
+    return dump_qos_v8([profile])
 
 
 def points_topic(sensor_name: str) -> str:
@@ -250,6 +246,11 @@ class BagWriter:
     """
 
     def __init__(self, stream: BinaryIO, sensors: Sequence[dict], layout: PointLayout = SIMGEN_LAYOUT):
+        from mcap.well_known import SchemaEncoding
+        from mcap.writer import Writer
+        from mcap_ros2._dynamic import serialize_dynamic  # mcap-ros2-support's CDR encoder (its Writer cannot give channels metadata)
+        from rosbags.typesys import Stores, get_typestore
+
         typestore = get_typestore(Stores.ROS2_HUMBLE)
         self.writer = Writer(stream)
         self.writer.start(profile="ros2", library=f"simgen {__version__}")
@@ -360,6 +361,9 @@ class McapClipStream:
 
 def read_bag(stream: BinaryIO) -> dict[str, list]:
     """Decoded messages of a bag by topic, in log-time order."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
     topics: dict[str, list] = {}
     for _, channel, _, message in make_reader(stream, decoder_factories=[DecoderFactory()]).iter_decoded_messages(log_time_order=True):
         topics.setdefault(channel.topic, []).append(message)
@@ -429,7 +433,7 @@ def card_lines() -> list[str]:
     meaning = ["metres, pitch frame", "", "", "reflectivity 0-255", "0 (no return flags)", "laser of the head that fired",
                "shot time, ns (header stamp + offset_time)", "ns since the header stamp", "track id, 1000 ball, -1 none"]
     rows = [f"| `{name}` | {offset} | {DATATYPE_NAMES[kind]} | {text} |" for (name, offset, kind, _), text in zip(POINT_FIELDS, meaning)]
-    qos = {topic: profile.durability.name.lower() for topic, profile in QOS_PROFILES.items()}
+    qos = {topic: durability.lower() for topic, (_, durability) in QOS_PROFILES.items()}
     return [
         "A ROS 2 bag in MCAP per clip, `<clip id>.mcap` (CDR, ROS 2 Humble message definitions in the file; open it",
         "with Foxglove, `ros2 bag play`, `rosbags` or the `mcap` Python package). Stamps are game time, not the epoch:",
@@ -451,7 +455,7 @@ def card_lines() -> list[str]:
         f"- `{TF_STATIC_TOPIC}`: `tf2_msgs/msg/TFMessage` at the first frame's stamp, `{WORLD_FRAME}` -> each sensor's name (its pose).",
         "",
         "Each channel carries rosbag2's `offered_qos_profiles` metadata, which `ros2 bag play` offers again: all reliable;",
-        f"points {qos['points']} (keep last {QOS_PROFILES['points'].depth}, as livox_ros_driver2 publishes), boxes"
+        f"points {qos['points']} (keep last {QOS_PROFILES['points'][0]}, as livox_ros_driver2 publishes), boxes"
         f" {qos[BOXES_TOPIC]}, `{TF_STATIC_TOPIC}` {qos[TF_STATIC_TOPIC].replace('_', ' ')} (keep last 1, as tf2's static",
         "broadcaster), so RViz and tf2 get the sensor poses whenever they subscribe.",
     ]
