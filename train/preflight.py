@@ -40,7 +40,8 @@ ANCHOR_BYTES = 3 * 8 + 2 * 7 * 8 + 2 * 7 * FLOAT
 LOSS_BYTES_PER_ANCHOR = 48  # the focal loss's ~10 float32 temporaries, the label, its masks
 PREFETCH = 4  # batches each loader process builds ahead (train.data.loader)
 # torch's kernels, autograd's and the optimizer's buffers on the first steps, whatever the model: a
-# one-channel detector's first training steps grew a process by 0-90 MB (tests/test_train_hostile.py)
+# one-channel detector's first two training steps grow a process's anonymous memory by 79 MiB
+# (tests/test_train_hostile.py measures it)
 RUNTIME_BYTES = 256 << 20
 # train.geometry.bev_iou of N boxes with each other: measured 3,890 bytes a pair at its peak when every
 # pair overlaps (41 when none does); NMS runs it on up to `infer.pre_nms` boxes.
