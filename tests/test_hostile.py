@@ -7,20 +7,17 @@ their peak memory measured. The counts in docs/reliability.md are the constants 
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import os
-import resource
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 import pytest
 import yaml
 from dataset_factory import sample_clips, write_dataset
+from hostile_support import assert_one_line_refusal, measured_process, peak_bytes, run_main
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -46,23 +43,7 @@ PRESETS = ["mid40-risley", "mid40-rose", "mid40-replay", "mid70-replay", "mid100
 
 def _run(*arguments) -> tuple[int, str, str]:
     """`simgen ARGUMENTS` in this process: exit code, stdout, stderr."""
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = main([str(a) for a in arguments])
-        except SystemExit as exit_:  # argparse
-            code = exit_.code
-    return code, out.getvalue(), err.getvalue()
-
-
-def _assert_one_line_refusal(code: int, out: str, err: str, what: object) -> None:
-    assert code == 2, (what, code, out, err)
-    assert out == "" and err.endswith("\n") and err.count("\n") == 1, (what, out, err)
-    assert "Traceback" not in err, (what, err)
-
-
-def _peak_bytes() -> int:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    return run_main(main, *arguments)
 
 
 # --- scenarios ------------------------------------------------------------------------------------
@@ -316,7 +297,7 @@ def test_generated_hostile_scenarios_are_refused_in_one_line(tmp_path):
     before = _listing(tmp_path)
     kinds: dict[str, int] = {}
     slowest = [0.0]
-    peak = _peak_bytes()
+    peak = peak_bytes()
 
     @settings(max_examples=HOSTILE_SCENARIOS, **SETTINGS)
     @given(HOSTILE)
@@ -326,7 +307,7 @@ def test_generated_hostile_scenarios_are_refused_in_one_line(tmp_path):
         started = time.process_time()  # CPU seconds of this process: what the refusal costs, whatever the load
         code, out, err = _run("validate", scenario)
         slowest[0] = max(slowest[0], time.process_time() - started)
-        _assert_one_line_refusal(code, out, err, (kind, document[:300]))
+        assert_one_line_refusal(code, out, err, (kind, document[:300]))
         assert "root:x:0:0" not in err and "password" not in err  # a replay file's content is never echoed
         kinds[kind] = kinds.get(kind, 0) + 1
 
@@ -334,11 +315,11 @@ def test_generated_hostile_scenarios_are_refused_in_one_line(tmp_path):
     assert _listing(tmp_path) == before  # validate wrote nothing
     total = sum(kinds.values())
     print(f"{total} hostile scenarios in {len(kinds)} kinds refused; slowest {slowest[0]:.2f} CPU s; "
-          f"peak memory +{(_peak_bytes() - peak) / 2**20:.0f} MiB")
+          f"peak memory +{(peak_bytes() - peak) / 2**20:.0f} MiB")
     assert total >= HOSTILE_SCENARIOS
     assert len(kinds) >= 40, sorted(kinds)
     assert slowest[0] < MAX_SECONDS_EACH
-    assert _peak_bytes() - peak < MAX_GROWTH_BYTES
+    assert peak_bytes() - peak < MAX_GROWTH_BYTES
 
 
 # --- manifests and datasets --------------------------------------------------------------------
@@ -496,7 +477,7 @@ def _restore(root: Path, original: bytes) -> None:
 def test_generated_corrupt_manifests_are_refused_in_one_line(written):
     before = {format: _listing(root) for format, (root, _) in written.items()}
     kinds: dict[str, int] = {}
-    peak = _peak_bytes()
+    peak = peak_bytes()
 
     @settings(max_examples=CORRUPT_MANIFESTS, **SETTINGS)
     @given(_manifest_case())
@@ -506,7 +487,7 @@ def test_generated_corrupt_manifests_are_refused_in_one_line(written):
         try:
             _corrupt(root, original, action)
             code, out, err = _run("verify", root)
-            _assert_one_line_refusal(code, out, err, (format, kind, action))
+            assert_one_line_refusal(code, out, err, (format, kind, action))
             with pytest.raises(UserError) as error:
                 dataset = datasets.open(root)
                 for _ in dataset:
@@ -521,9 +502,9 @@ def test_generated_corrupt_manifests_are_refused_in_one_line(written):
         assert _listing(root) == before[format]
         datasets.open(root).verify()  # restored
     total = sum(kinds.values())
-    print(f"{total} corrupt manifests in {len(kinds)} kinds refused; peak memory +{(_peak_bytes() - peak) / 2**20:.0f} MiB")
+    print(f"{total} corrupt manifests in {len(kinds)} kinds refused; peak memory +{(peak_bytes() - peak) / 2**20:.0f} MiB")
     assert total >= CORRUPT_MANIFESTS and len(kinds) >= 30, sorted(kinds)
-    assert _peak_bytes() - peak < MAX_GROWTH_BYTES
+    assert peak_bytes() - peak < MAX_GROWTH_BYTES
 
 
 def test_generated_corrupt_data_files_are_caught(written):
@@ -560,16 +541,8 @@ def test_generated_corrupt_data_files_are_caught(written):
 
 
 def _process(*arguments) -> tuple[int, str, str, int, float]:
-    """`simgen ARGUMENTS` as a real process: exit code, stdout, stderr, peak resident bytes, CPU seconds
-    (user + system: what the process itself spent, whatever else the machine runs meanwhile)."""
-    with tempfile.TemporaryDirectory() as scratch:
-        report = Path(scratch) / "usage"
-        command = [sys.executable, "-m", "simgen.cli", *map(str, arguments)]
-        # the launcher keeps this (by now large) test process's RSS out of the child's peak
-        launcher = [sys.executable, str(ROOT / "benchmarks" / "measure_child.py"), str(report)]
-        done = subprocess.run([*launcher, *command], cwd=ROOT, capture_output=True, text=True)
-        usage = json.loads(report.read_text())
-        return usage["exit_code"], done.stdout, done.stderr, usage["peak_bytes"], usage["cpu_s"]
+    """`simgen ARGUMENTS` as a real process: exit code, stdout, stderr, peak resident bytes, CPU seconds."""
+    return measured_process("simgen.cli", *arguments)
 
 
 def test_hostile_input_in_real_processes(tmp_path, written):
@@ -587,7 +560,7 @@ def test_hostile_input_in_real_processes(tmp_path, written):
         _corrupt(root, original, ("forge", "../../etc/hostname", True))
         for arguments in cases:
             code, out, err, peak, seconds = _process(*arguments)
-            _assert_one_line_refusal(code, out, err, arguments)
+            assert_one_line_refusal(code, out, err, arguments)
             assert peak < MAX_PROCESS_BYTES and seconds < 30, (arguments, peak, seconds)
     finally:
         _restore(root, original)

@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import csv
-import io
 import shutil
-from contextlib import redirect_stderr, redirect_stdout
 
 import pytest
 import torch
 import yaml
 from conftest import ROOT
 from detector_support import SMOKE, tiny_config
+from hostile_support import run_main
 
 import simgen.datasets
 from train.checkpoint import load_checkpoint
@@ -27,11 +26,8 @@ METHODS = ("Single Frame (x1)", "Early Fusion (x1)", "Late Fusion (x1)")
 
 
 def run_study(*args: object) -> tuple[int, str, str]:
-    """(exit code, stdout, stderr) of `simgen-train study ARGS`, run in this process."""
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        code = main(["study", *map(str, args)])
-    return code, out.getvalue(), err.getvalue()
+    """(exit code, stdout, stderr) of `simgen-train study ARGS`, run in this process (usage errors included)."""
+    return run_main(main, "study", *args)
 
 
 def write_scenario(path, **changes) -> None:
@@ -214,4 +210,4 @@ def test_seeds_and_the_frame_split(study, tmp_path):
     assert len(rows) == 2 and all(" ± " in row for row in rows)
     assert "Not run" in (out / "table2.md").read_text()
     code, _, stderr = run_study(scenario, "-o", out, "--seeds", "0,0", "--quiet")
-    assert code == 2 and stderr.strip().endswith("give distinct seeds >= 0")
+    assert code == 2 and stderr.strip().endswith("seed 0 is given twice")

@@ -155,4 +155,4 @@ def test_a_fit_stopped_and_resumed_ends_with_the_uninterrupted_weights(trained, 
     curve = [(r["iteration"], r["3d_r40"]) for r in csv.DictReader(open(parts / "learning_curve.csv"))]
     assert curve == [(r["iteration"], r["3d_r40"]) for r in csv.DictReader(open(whole / "learning_curve.csv"))]
     code, err = call_train(capsys, "fit", config, "--dataset", dataset, "-o", parts, "--quiet", "--resume")
-    assert code == 2 and err.strip().endswith("already at iteration 6 of 6: nothing to resume")
+    assert code == 2 and err.strip().endswith("at iteration 6 of 'train.iterations' 6: nothing to resume")

@@ -1,7 +1,9 @@
 """`simgen-train fit | eval | detect | study`: the paper's PointPillars tracklet detector on simgen datasets.
 
 Datasets are read only through simgen.datasets. Bad input (a missing dataset or config, a file
-that is not our checkpoint) is one line on stderr and exit code 2.
+that is not our checkpoint, an option out of range, a model that would not fit in the device's
+memory, more loader processes than cores) is one line on stderr and exit code 2, found before
+anything is trained or allocated (train.preflight).
 """
 
 from __future__ import annotations
@@ -15,17 +17,38 @@ import torch
 from tqdm import tqdm
 
 import simgen.datasets
+from simgen.atomic import check_output_allowed
 from simgen.cli import dispatch
 from simgen.errors import UserError
-from simgen.scenario import load_scenario
+from simgen.scenario import Scenario, load_scenario
 from train.checkpoint import load_checkpoint
-from train.config import DetectorConfig, load_config
-from train.evaluate import detect, evaluate, format_ap_table, write_ap_csv
-from train.fit import fit
+from train.config import MAX_ITERATIONS, MAX_SEED, MAX_WORKERS, DetectorConfig, load_config, parse_config
+from train.evaluate import EVAL_BATCH, detect, evaluate, format_ap_table, write_ap_csv
+from train.fit import CHECKPOINT_NAME, fit
 from train.models.detector import Detector
-from train.study import CONFIGS, PRESETS, SCENARIOS, StudyOptions, parse_models, run_study, seed_runs
+from train.preflight import (
+    check_memory,
+    check_resume,
+    check_workers,
+    cpu_cores,
+    dataset_points_per_frame,
+    parse_seeds,
+    scenario_points_per_frame,
+)
+from train.study import (
+    CONFIGS,
+    PRESETS,
+    SCENARIOS,
+    TRACKER_CONFIGS,
+    StudyOptions,
+    model_config,
+    parse_models,
+    run_study,
+    seed_runs,
+)
 from train.study_report import write_tables
 from train.study_seeds import write_seed_tables
+from train.tracking.config import load_tracker_configs
 
 SPLITS = ("train", "val", "all")
 
@@ -45,32 +68,80 @@ def _device(name: str) -> torch.device:
     return torch.device(name)
 
 
-def _dataset(path: str) -> str:
-    simgen.datasets.open(path)  # a missing or foreign folder fails here, in one line
-    return path
+def _count(option: str, low: int, high: int):
+    """An argparse type: a whole number in [low, high], else a one-line usage error naming the option."""
+
+    def parse(text: str) -> int:
+        word = text.strip()
+        digits = word.removeprefix("-").removeprefix("+")
+        if not (digits.isascii() and digits.isdigit()) or len(digits) > 30:
+            raise argparse.ArgumentTypeError(f"{text[:20]!r} is not a whole number")
+        value = int(word)
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"{value:,} is out of range: {low:,} to {high:,}")
+        return value
+
+    return parse
+
+
+def _output(path: str) -> Path:
+    """The output folder: allowed ($SIMGEN_OUTPUT_ROOTS), and it or the nearest folder that exists above it a folder."""
+    check_output_allowed(path)
+    out = Path(path)
+    existing = next((p for p in (out, *out.absolute().parents) if p.exists()), Path("/"))
+    if not existing.is_dir():
+        raise UserError(f"-o {path}: {existing} exists and is not a folder")
+    return out
+
+
+def _dataset(path: str) -> simgen.datasets.Dataset:
+    return simgen.datasets.open(path)  # a missing or foreign folder fails here, in one line
 
 
 def _split(name: str) -> str | None:
     return None if name == "all" else name
 
 
-def _model(checkpoint_path: str) -> tuple[Detector, DetectorConfig, int]:
+def _model(checkpoint_path: str, dataset: simgen.datasets.Dataset, device: torch.device) -> tuple[Detector, DetectorConfig, int]:
+    """The checkpoint's detector, once its inference is known to fit the device; loader processes at most the cores
+    (they do not change the results)."""
     checkpoint = load_checkpoint(checkpoint_path)
-    model = Detector(checkpoint.config)
+    config = checkpoint.config
+    if config.train.workers > cpu_cores():
+        config = config.model_copy(update={"train": config.train.model_copy(update={"workers": cpu_cores()})})
+    check_memory(config, dataset_points_per_frame(dataset), device, training=False, batch=EVAL_BATCH)
+    model = Detector(config)
     try:
         model.load_state_dict(checkpoint.model)
     except RuntimeError:
         raise UserError(f"{checkpoint_path}: its weights do not fit its config") from None
-    return model, checkpoint.config, checkpoint.iteration
+    return model, config, checkpoint.iteration
+
+
+def _overridden(config: DetectorConfig, source: str, **train: int | None) -> DetectorConfig:
+    """The config with the command's options for `train` fields, validated again."""
+    changes = {k: v for k, v in train.items() if v is not None}
+    if not changes:
+        return config
+    data = config.model_dump(mode="json")
+    data["train"].update(changes)
+    return parse_config(data, f"{source} (with {', '.join(f'--{k} {v}' for k, v in changes.items())})")
+
+
+def _preflight(config: DetectorConfig, points_per_frame: int, device: torch.device) -> None:
+    """Refuse a training the machine cannot run: loader processes beyond its cores, memory beyond the device's."""
+    check_workers(config)
+    check_memory(config, points_per_frame, device, training=True)
 
 
 def _fit(args: argparse.Namespace) -> int:
-    config = load_config(args.config)
-    changes = {k: v for k, v in (("iterations", args.iterations), ("workers", args.workers)) if v is not None}
-    if changes:
-        config = config.model_copy(update={"train": config.train.model_copy(update=changes)})
-    result = fit(config, _dataset(args.dataset), Path(args.output), _device(args.device), not args.quiet,
-                 resume=args.resume, stop_at=args.stop_at, stop_after_s=args.stop_after)
+    config = _overridden(load_config(args.config), args.config, iterations=args.iterations, workers=args.workers)
+    out, dataset, device = _output(args.output), _dataset(args.dataset), _device(args.device)
+    _preflight(config, dataset_points_per_frame(dataset), device)
+    if args.resume:
+        check_resume(out / CHECKPOINT_NAME, config)
+    result = fit(config, args.dataset, out, device, not args.quiet, resume=args.resume, stop_at=args.stop_at,
+                 stop_after_s=args.stop_after)
     print(f"{result.checkpoint}: {result.iterations} iterations, {result.samples_per_s:.2f} samples/s")
     if result.stopped:
         print(f"stopped at iteration {result.iterations} of {config.train.iterations}: run the same command with "
@@ -79,10 +150,10 @@ def _fit(args: argparse.Namespace) -> int:
 
 
 def _eval(args: argparse.Namespace) -> int:
-    model, config, iteration = _model(args.checkpoint)
-    out = Path(args.output)
+    out, dataset, device = _output(args.output), _dataset(args.dataset), _device(args.device)
+    model, config, iteration = _model(args.checkpoint, dataset, device)
     out.mkdir(parents=True, exist_ok=True)
-    result = evaluate(model, config, _dataset(args.dataset), _split(args.split), _device(args.device), not args.quiet)
+    result = evaluate(model, config, args.dataset, _split(args.split), device, not args.quiet)
     write_ap_csv(out / "ap.csv", result.rows, {"model": config.name, "iteration": str(iteration), "split": args.split})
     print(format_ap_table(result.rows))
     print(f"{out / 'ap.csv'}: {config.name} at iteration {iteration}, {result.frames_per_s:.2f} frames/s")
@@ -90,64 +161,84 @@ def _eval(args: argparse.Namespace) -> int:
 
 
 def _detect(args: argparse.Namespace) -> int:
-    model, config, _ = _model(args.checkpoint)
-    paths = detect(model, config, _dataset(args.dataset), _split(args.split), _device(args.device), Path(args.output), not args.quiet)
-    print(f"{Path(args.output)}: tracklets of {len(paths)} clips in tracklets/, KITTI labels in kitti/")
+    out, dataset, device = _output(args.output), _dataset(args.dataset), _device(args.device)
+    model, config, _ = _model(args.checkpoint, dataset, device)
+    paths = detect(model, config, args.dataset, _split(args.split), device, out, not args.quiet)
+    print(f"{out}: tracklets of {len(paths)} clips in tracklets/, KITTI labels in kitti/")
     return 0
 
 
-def _seeds(text: str | None) -> tuple[int, ...] | None:
-    """`--seeds 0,1,2` -> (0, 1, 2): distinct non-negative integers."""
-    if text is None:
-        return None
-    try:
-        seeds = tuple(int(part) for part in text.split(","))
-    except ValueError:
-        raise UserError(f"--seeds: {text!r} is not a comma-separated list of integers") from None
-    if not seeds or len(set(seeds)) != len(seeds) or min(seeds) < 0:
-        raise UserError(f"--seeds: {text!r}: give distinct seeds >= 0")
-    return seeds
-
-
-def _one_study(args: argparse.Namespace, scenario_path: str, models_text: str, configs: str, out: str) -> list[Path]:
-    """One scenario's study (once per seed with --seeds); returns the table files."""
+def _study_options(args: argparse.Namespace, scenario_path: str, models_text: str, configs: str,
+                   out: str) -> tuple[StudyOptions, Scenario]:
+    """One scenario's study, checked before it starts: its scenario, models, detector and tracker configs, and
+    that each model's training fits this machine (points per frame from the scenario's sensors)."""
     scenario = load_scenario(scenario_path)
     models = parse_models(models_text, scenario.scan.density)
-    seeds = _seeds(args.seeds)
-    if seeds is not None and args.seed is not None:
+    if args.seeds is not None and args.seed is not None:
         raise UserError("study: give --seed or --seeds, not both")
-    options = StudyOptions(Path(scenario_path), Path(out), Path(args.datasets), models, args.iterations, args.workers,
-                           args.seed, Path(configs), _device(args.device), not args.quiet, split=args.split)
-    spelled = [scenario_path, "-o", out, "--models", ",".join(models), "--datasets", args.datasets]
+    options = StudyOptions(Path(scenario_path), _output(out), Path(args.datasets), models, args.iterations, args.workers,
+                           args.seed, Path(configs), _device(args.device), not args.quiet, Path(args.trackers), args.split)
+    load_tracker_configs(options.trackers)
+    for model in models:
+        _preflight(model_config(options, model), scenario_points_per_frame(scenario), options.device)
+    return options, scenario
+
+
+def _one_study(args: argparse.Namespace, options: StudyOptions, scenario: Scenario) -> list[Path]:
+    """One scenario's study (once per seed with --seeds); returns the table files."""
+    spelled = [str(options.scenario), "-o", str(options.out), "--models", ",".join(options.models), "--datasets", args.datasets]
     spelled += ["--device", args.device]
-    for key in ("iterations", "workers", "seed", "seeds", "split"):
+    for key in ("iterations", "workers", "seed", "split"):
         spelled += [f"--{key}", str(getattr(args, key))] if getattr(args, key) is not None else []
-    spelled += ["--configs", configs] if Path(configs) != CONFIGS else []
+    spelled += ["--seeds", ",".join(map(str, args.seeds))] if args.seeds is not None else []
+    spelled += ["--configs", str(options.configs)] if options.configs != CONFIGS else []
+    spelled += ["--trackers", str(options.trackers)] if options.trackers != TRACKER_CONFIGS else []
     command = shlex.join(["simgen-train", "study", *spelled])
-    if seeds is None:
+    if args.seeds is None:
         return write_tables(run_study(options, scenario), command, options.out)
     paths, results = [], []
-    for run in tqdm(seed_runs(options, seeds), desc="study --seeds", unit="seed", disable=args.quiet):
+    for run in tqdm(seed_runs(options, args.seeds), desc="study --seeds", unit="seed", disable=args.quiet):
         results.append(run_study(run, scenario))
         paths += write_tables(results[-1], command, run.out)
-    return paths + write_seed_tables(results, seeds, command, options.out)
+    return paths + write_seed_tables(results, args.seeds, command, options.out)
 
 
 def _study(args: argparse.Namespace) -> int:
-    if args.iterations is not None and args.iterations < 1:
-        raise UserError(f"--iterations: {args.iterations} is not a positive number of batches")
     if (args.scenario is None) == (args.preset is None):
         raise UserError("study: give a scenario YAML or --preset, not both")
     if args.scenario is not None:
-        paths = _one_study(args, args.scenario, args.models, args.configs, args.output)
+        studies = [_study_options(args, args.scenario, args.models, args.configs, args.output)]
     else:
         configs, runs = PRESETS[args.preset]
-        paths = []
-        for scenario, models in tqdm(runs, desc=f"study --preset {args.preset}", unit="scenario", disable=args.quiet):
-            out = str(Path(args.output) / Path(scenario).stem)
-            paths += _one_study(args, str(SCENARIOS / scenario), ",".join(models), str(configs), out)
+        studies = [_study_options(args, str(SCENARIOS / scenario), ",".join(models), str(configs),
+                                  str(Path(args.output) / Path(scenario).stem)) for scenario, models in runs]
+    paths = []
+    for options, scenario in tqdm(studies, desc="study", unit="scenario", disable=args.quiet or len(studies) == 1):
+        paths += _one_study(args, options, scenario)
     print("\n".join(str(p) for p in paths))
     return 0
+
+
+def _seed_list(text: str) -> tuple[int, ...]:
+    try:
+        return parse_seeds(text)
+    except UserError as error:
+        raise argparse.ArgumentTypeError(str(error).removeprefix("--seeds: ")) from None
+
+
+def _seconds(text: str) -> float:
+    """An argparse type: a positive, finite number of seconds."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text[:20]!r} is not a number of seconds") from None
+    if not 0 < value < 1e9:
+        raise argparse.ArgumentTypeError(f"{value:g} is out of range: more than 0 and under 1e9 seconds")
+    return value
+
+
+ITERATIONS = _count("--iterations", 1, MAX_ITERATIONS)
+WORKERS = _count("--workers", 0, MAX_WORKERS)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -168,13 +259,14 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("fit", help="train a detector on the dataset's train clips")
     p.add_argument("config", help="detector config YAML (train/configs/single|early|late.yaml)")
     common(p)
-    p.add_argument("--iterations", type=int, help="override train.iterations")
-    p.add_argument("--workers", type=int, help="override train.workers (loader processes)")
+    p.add_argument("--iterations", type=ITERATIONS, help="override train.iterations")
+    p.add_argument("--workers", type=WORKERS, help="override train.workers (loader processes, at most the CPU cores)")
     p.add_argument("--resume", action="store_true", help="continue the fit in OUTPUT from its checkpoint (weights, "
                    "optimiser, schedule and sample stream): the same weights as one uninterrupted fit")
-    p.add_argument("--stop-at", type=int, metavar="ITERATION", help="checkpoint at this iteration and stop (then --resume)")
-    p.add_argument("--stop-after", type=float, metavar="SECONDS", help="checkpoint once this run has trained this long "
-                   "and stop (then --resume): a long fit as several commands under a time limit")
+    p.add_argument("--stop-at", type=ITERATIONS, metavar="ITERATION", help="checkpoint at this iteration and stop "
+                   "(then --resume)")
+    p.add_argument("--stop-after", type=_seconds, metavar="SECONDS", help="checkpoint once this run has trained this "
+                   "long and stop (then --resume): a long fit as several commands under a time limit")
     p.set_defaults(func=_fit)
 
     for name, func, text in (("eval", _eval, "detection AP (BEV, 3D; IoU 0.5; R40 and R11) into ap.csv"),
@@ -193,17 +285,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help="output folder (created): table1/2.md and .csv, a run per model")
     p.add_argument("--models", default="late", help="Table 1 rows, comma-separated: late and any of single, early "
                    "(default: late; --preset sets them)")
-    p.add_argument("--iterations", type=int, help="training batches per model (default: each config's)")
-    p.add_argument("--workers", type=int, help="override train.workers (loader processes)")
-    p.add_argument("--seed", type=int, help="override the configs' seed")
-    p.add_argument("--seeds", help="train and score every model once per seed, e.g. 0,1,2: OUT/seed_<seed>/ each, and "
-                   "OUT/table1.md, table2.md with mean, spread and whether the paper's orderings hold beyond it")
-    p.add_argument("--split", choices=("clip", "frame"), help="train/val split for every model (default: the configs', "
-                   "clip): clip holds out whole clips; frame holds out every k-th t-2..t window of every clip, no "
-                   "training window sharing a frame with a val one (Table 2 needs clip)")
+    p.add_argument("--iterations", type=ITERATIONS, help="training batches per model (default: each config's)")
+    p.add_argument("--workers", type=WORKERS, help="override train.workers (loader processes, at most the CPU cores)")
+    p.add_argument("--seed", type=_count("--seed", 0, MAX_SEED), help="override the configs' seed")
+    p.add_argument("--seeds", type=_seed_list, help="train and score every model once per seed, e.g. 0,1,2: "
+                   "OUT/seed_<seed>/ each, and OUT/table1.md, table2.md with mean, spread and whether the paper's "
+                   "orderings hold beyond it")
+    p.add_argument("--split", choices=("clip", "frame"), help="train/val split for every model (default: the "
+                   "configs', clip): clip holds out whole clips; frame holds out every k-th t-2..t window of every "
+                   "clip, no training window sharing a frame with a val one (Table 2 needs clip)")
     p.add_argument("--datasets", default="datasets", help="folder of datasets by scenario name (default: datasets)")
     p.add_argument("--configs", default=str(CONFIGS), help="folder with single/early/late.yaml (default: train/configs; "
                    "--preset sets it)")
+    p.add_argument("--trackers", default=str(TRACKER_CONFIGS), help="folder of tracker configs, one per Table 2 row "
+                   "(default: train/configs/tracking)")
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto", help="default: CUDA when present")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=_study)

@@ -16,14 +16,14 @@ from pathlib import Path
 import torch
 from tqdm import tqdm
 
-from simgen.errors import UserError
-from train.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
-from train.config import DetectorConfig, same_weights
+from train.checkpoint import Checkpoint, save_checkpoint
+from train.config import DetectorConfig
 from train.data import SampleSet, loader
 from train.evaluate import average_precisions, mean_ap, predict
 from train.learning_curve import CurvePoint, read_curve, write_curve
 from train.losses import detection_loss
 from train.models.detector import Detector, build_detector
+from train.preflight import check_resume
 
 CHECKPOINT_NAME = "checkpoint.pt"
 LOG_NAME = "train_log.csv"
@@ -61,16 +61,9 @@ def _val_point(model: Detector, config: DetectorConfig, dataset: str, device: to
 
 
 def _resumed(out: Path, config: DetectorConfig, model: Detector, optimizer: torch.optim.Optimizer) -> int:
-    """Load OUT's checkpoint into model and optimiser; the iteration it was saved at. It must hold a fit of
-    the same config (weights-wise) that has iterations left."""
-    path = out / CHECKPOINT_NAME
-    saved = load_checkpoint(path)
-    if not same_weights(saved.config, config):
-        raise UserError(f"{path}: a fit of another config ({saved.config.name}); --resume continues the same one")
-    if saved.optimizer is None:
-        raise UserError(f"{path}: holds no optimiser state (weights only), so it cannot be resumed")
-    if saved.iteration >= config.train.iterations:
-        raise UserError(f"{path}: already at iteration {saved.iteration} of {config.train.iterations}: nothing to resume")
+    """Load OUT's checkpoint into model and optimiser (train.preflight.check_resume: the same training,
+    with iterations left); the iteration it was saved at."""
+    saved = check_resume(out / CHECKPOINT_NAME, config)
     model.load_state_dict(saved.model)
     optimizer.load_state_dict(saved.optimizer)
     return saved.iteration

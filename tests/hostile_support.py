@@ -1,0 +1,51 @@
+"""Shared by the hostile-input tests: a CLI's `main` in this process, a command as a real process with
+its own peak memory and CPU time, and the refusal every case must be (exit 2, one line, no traceback)."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import resource
+import subprocess
+import sys
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+from conftest import ROOT
+
+
+def run_main(main: Callable[[list[str]], int], *arguments) -> tuple[int, str, str]:
+    """`main(ARGUMENTS)` in this process: exit code, stdout, stderr."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = main([str(a) for a in arguments])
+        except SystemExit as exit_:  # argparse
+            code = exit_.code
+    return code, out.getvalue(), err.getvalue()
+
+
+def assert_one_line_refusal(code: int, out: str, err: str, what: object) -> None:
+    assert code == 2, (what, code, out, err)
+    assert out == "" and err.endswith("\n") and err.count("\n") == 1, (what, out, err)
+    assert "Traceback" not in err, (what, err)
+
+
+def peak_bytes() -> int:
+    """This process's peak resident memory so far."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+
+def measured_process(module: str, *arguments) -> tuple[int, str, str, int, float]:
+    """`python -m MODULE ARGUMENTS` as a real process: exit code, stdout, stderr, peak resident bytes, CPU
+    seconds (user + system: what the process itself spent, whatever else the machine runs meanwhile)."""
+    with tempfile.TemporaryDirectory() as scratch:
+        report = Path(scratch) / "usage"
+        command = [sys.executable, "-m", module, *map(str, arguments)]
+        # the launcher keeps this (by now large) test process's RSS out of the child's peak
+        launcher = [sys.executable, str(ROOT / "benchmarks" / "measure_child.py"), str(report)]
+        done = subprocess.run([*launcher, *command], cwd=ROOT, capture_output=True, text=True)
+        usage = json.loads(report.read_text())
+        return usage["exit_code"], done.stdout, done.stderr, usage["peak_bytes"], usage["cpu_s"]
