@@ -100,6 +100,16 @@ class ScanConfig(_Strict):
     )
 
 
+class LabelsConfig(_Strict):
+    """How the boxes are drawn (simgen.labels.boxes)."""
+
+    size: Literal["enclosing", "track"] = Field(
+        "enclosing", description="enclosing: each box spans the body as posed at its label time (its length swings "
+        "with the stride); track: each humanoid's length, width and height fixed at their medians over the clip (as "
+        "annotators draw one size per person), the centre still from the pose.",
+    )
+
+
 class DatasetConfig(_Strict):
     """What `simgen generate` writes."""
 
@@ -274,6 +284,7 @@ class Scenario(_Strict):
     sensors: list[SensorConfig] = Field(default_factory=lambda: [SensorConfig()], min_length=1, max_length=16)
     scan: ScanConfig = ScanConfig()
     noise: NoiseConfig = NoiseConfig()
+    labels: LabelsConfig = LabelsConfig()
     dataset: DatasetConfig = DatasetConfig()
 
     @field_validator("custom_sensors")

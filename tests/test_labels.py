@@ -152,3 +152,21 @@ def test_engine_skeletons_get_tight_adult_boxes(motion_clip):
     length, width, height = np.median(boxes.size_m, axis=0)
     assert 0.4 <= length <= 0.9 and 0.5 <= width <= 0.9 and 1.6 <= height <= 1.9
     assert _above_ground_overhang(kp).max() <= TOLERANCE_M
+
+
+def test_track_sizes_hold_still_over_the_clip(motion_clip):
+    """labels.size: track, through the pipeline on the captured clip: every humanoid's length, width and
+    height are the same in every frame (the medians of its enclosing boxes over the clip), its centre on
+    the pitch plane and its bottom are the enclosing box's."""
+    from simgen.pipeline.clip import render_frames
+    from simgen.scenario import parse_scenario
+
+    scenario = {"name": "sizes", "scan": {"frame_rate_hz": 10, "frames": 6}, "sensors": [{"preset": "mid40-rose"}]}
+    enclosing = list(render_frames(parse_scenario(scenario), motion_clip, 0, 0, 6))
+    track = list(render_frames(parse_scenario({**scenario, "labels": {"size": "track"}}), motion_clip, 0, 0, 6))
+    sizes = np.stack([f.labels.boxes[:, 3:6] for f in track])
+    assert np.all(sizes == sizes[0]) and np.ptp(np.stack([f.labels.boxes[:, 3] for f in enclosing]), axis=0).max() > 0.05
+    for a, b in zip(enclosing, track):
+        np.testing.assert_array_equal(a.labels.boxes[:, :2], b.labels.boxes[:, :2])
+        np.testing.assert_allclose(a.labels.boxes[:, 2] - a.labels.boxes[:, 5] / 2, b.labels.boxes[:, 2] - b.labels.boxes[:, 5] / 2, atol=1e-6)
+        np.testing.assert_array_equal(a.labels.boxes[:, 6], b.labels.boxes[:, 6])

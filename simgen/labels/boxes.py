@@ -13,6 +13,10 @@ mesh lies inside and the box is tight around it, in any pose and under any fallb
 elbows; scripts/measure_box_margins.py measures that reach and the boxes' slack, under 1 cm.)
 Vertically the box runs from the ground (z = 0), or from the lowest point of the body when
 that is `AIRBORNE_M` or more above the ground (a jump), to the highest point of the body.
+
+`labels.size: track` draws every box of a humanoid with one size, the medians of its enclosing
+boxes' length, width and height over the clip (`track_sizes`, `with_track_sizes`): the centre stays
+the enclosing box's on the pitch plane, and the box keeps its bottom.
 """
 
 from __future__ import annotations
@@ -154,3 +158,24 @@ def placed_between(clip: MotionClip, since_s: NDArray, until_s: NDArray) -> NDAr
     the end of the frame's sweep, this is `FrameLabels.discontinuity`."""
     first, last = clip.time_s[0], clip.time_s[-1]
     return segment_index(clip, np.clip(since_s, first, last)) != segment_index(clip, np.clip(until_s, first, last))
+
+
+TRACK_SIZE_CHUNK = 2000  # label times posed at once by `track_sizes` (a whole match has 54,000)
+
+
+def track_sizes(clip: MotionClip, label_times_s: NDArray) -> NDArray[np.float64]:
+    """(H, 3) each humanoid's median length, width and height (m) over its enclosing boxes at `label_times_s`."""
+    sizes = np.empty((len(label_times_s), clip.num_humanoids, 3), np.float64)
+    for start in range(0, len(label_times_s), TRACK_SIZE_CHUNK):
+        stop = start + TRACK_SIZE_CHUNK
+        sizes[start:stop] = label_poses(clip, np.asarray(label_times_s[start:stop], np.float64))[2][..., 3:6]
+    return np.median(sizes, axis=0)
+
+
+def with_track_sizes(boxes: NDArray, sizes: NDArray) -> NDArray[np.float64]:
+    """Boxes (..., H, 7) drawn with the humanoids' sizes (H, 3): the same centre on the pitch plane and bottom."""
+    out = np.array(boxes, np.float64, copy=True)
+    bottom = out[..., 2] - out[..., 5] / 2
+    out[..., 3:6] = sizes
+    out[..., 2] = bottom + sizes[..., 2] / 2
+    return out

@@ -13,7 +13,7 @@ from typing import Iterator
 import numpy as np
 
 from simgen.errors import UserError
-from simgen.labels.boxes import frame_labels, label_poses, placed_between
+from simgen.labels.boxes import frame_labels, label_poses, placed_between, track_sizes, with_track_sizes
 from simgen.labels.labelled_frame import LabelledFrame
 from simgen.motion.clip import MotionClip
 from simgen.render.frame import render_frame
@@ -63,12 +63,15 @@ def render_frames(scenario: Scenario, clip: MotionClip, clip_index: int, first: 
     rate = scenario.scan.frame_rate_hz
     start = float(clip.time_s[0])
     specs = scenario.sensor_specs()
+    # labels.size: track: one size per humanoid over the whole clip, whatever part of it this call renders
+    sizes = track_sizes(clip, start + (np.arange(frame_count(scenario, clip)) + 0.5) / rate) if scenario.labels.size == "track" else None
     for index in range(first, stop):
         j = index % LABEL_CHUNK_FRAMES
         if j == 0 or index == first:  # labels of the chunk's frames at once (none past `stop`: no motion there)
             chunk = index - j + np.arange(min(LABEL_CHUNK_FRAMES, stop - index + j))
             label_times = start + (chunk + 0.5) / rate
             keypoints, velocity, boxes = label_poses(clip, label_times)
+            boxes = boxes if sizes is None else with_track_sizes(boxes, sizes)
             # the previous frame's label time (the same floats as its own) to the end of this frame's sweep
             discontinuity = placed_between(clip, start + (chunk - 0.5) / rate, start + (chunk + 1) / rate)
         frame_start = start + index / rate
