@@ -12,6 +12,7 @@ from simgen.datasets import openpcdet_config, ros2_bag
 from simgen.datasets.manifest import MANIFEST_NAME, Manifest
 from simgen.datasets.samples import INTENSITY_SCALE, MAX_FRAMES_PER_CLIP, VAL_FRACTION
 from simgen.datasets.schema import BOX_CONVENTION, PITCH_FRAME, TABLES
+from simgen.labels.statistics import summary_rows
 from simgen.vocab import BALL_INSTANCE_ID, OFFICIAL_CLASS, PLAYER_CLASS, SEMANTIC_NAMES
 
 
@@ -194,6 +195,13 @@ def dataset_card(manifest: Manifest) -> str:
         "  its box in the frames around the placement has `discontinuity` set (Parquet `boxes.discontinuity`, KITTI",
         "  tracking `training/placements/`, MCAP a `placed` marker in namespace `discontinuity`): the box may jump from the",
         "  previous frame's, the frame's points of it may lie at both places, and its velocity is taken within its segment.",
+        "",
+        "## Labels",
+        "",
+        f"Over every clip ({manifest.labels.get('frame_pairs') or 0:,.0f} pairs of consecutive frames of a track, none across "
+        "a placement; simgen.labels.statistics): how much a box changes from one frame to the next, and its points.",
+        "",
+        *_table(["quantity", "median", "90th percentile", "99th percentile"], summary_rows(manifest.labels)),
         "",
         "## Layout",
         "",

@@ -57,6 +57,7 @@ class Manifest:
     sensors: tuple[dict, ...]
     clips: tuple[ClipEntry, ...]
     files: tuple[FileRecord, ...]
+    labels: dict[str, float | None]  # LabelStatistics.summary() over every clip
 
     def to_dict(self) -> dict:
         return {
@@ -79,6 +80,7 @@ class Manifest:
             sensors=tuple(s.model_dump() | {"pose": tuple(s.pose)} for s in valid.sensors),
             clips=tuple(ClipEntry(**c.model_dump()) for c in valid.clips),
             files=tuple(FileRecord(**f.model_dump()) for f in valid.files),
+            labels=dict(valid.labels),
         )
 
 
@@ -151,6 +153,7 @@ class ManifestFile(_Strict):
     files: list[FileEntry] = Field(min_length=1)
     conventions: dict[str, str]
     totals: Totals
+    labels: dict[Annotated[str, Field(max_length=64)], Annotated[float, Field(ge=0, le=1e15)] | None] = Field(max_length=64)  # label statistics
 
     @model_validator(mode="after")
     def _consistent(self) -> "ManifestFile":

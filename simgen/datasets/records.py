@@ -38,6 +38,7 @@ class ClipRecord:
     boxes: int
     start_s: float  # game time of the first written frame's sweep start (frame 0's for a whole clip)
     files: tuple[FileRecord, ...]
+    labels: dict  # simgen.labels.statistics.LabelStatistics.to_dict() of its frames
 
     def to_dict(self) -> dict:
         return asdict(self)

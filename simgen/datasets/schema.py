@@ -19,10 +19,10 @@ import pyarrow as pa
 
 from simgen.vocab import BALL_INSTANCE_ID, KEYPOINT_NAMES, NUM_KEYPOINTS, SEMANTIC_NAMES
 
-SCHEMA_VERSION = 6  # 2: `clip` and `frame` columns in every per-clip table, `sensors` once per dataset, points.sweep;
+SCHEMA_VERSION = 7  # 2: `clip` and `frame` columns in every per-clip table, `sensors` once per dataset, points.sweep;
 #                    3: `points` row groups of 10 frames instead of one each; 4: boxes.discontinuity;
 #                    5: each clip's `start_s` in the manifest (the frames' game time in every format), a `units` table;
-#                    6: points.line
+#                    6: points.line; 7: label statistics in the manifest
 METADATA_KEY = b"simgen.dataset"
 PITCH_FRAME = "pitch: origin at the centre spot, x towards the right team's goal, y left, z up; metres"
 BOX_CONVENTION = (

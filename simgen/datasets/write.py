@@ -26,6 +26,7 @@ from simgen.datasets.ros2_bag import McapClipStream
 from simgen.datasets.samples import sample_name, val_clips
 from simgen.datasets.schema import SCHEMA_VERSION
 from simgen.errors import UserError
+from simgen.labels.statistics import LabelStatistics
 from simgen.vocab import TEAM_NAMES
 
 if TYPE_CHECKING:
@@ -67,6 +68,7 @@ class ClipWriter:
         self.format, self.clip, self.clip_index = format, clip, clip_index
         self.next_index, self.frames, self.points, self.boxes = first_frame, 0, 0, 0
         self.start_s = 0.0  # the first frame's time_s, once it comes
+        self.labels = LabelStatistics.empty()
         root = Path(root)
         if format == "parquet":
             self._stream = ParquetClipStream(root, clip)
@@ -86,6 +88,8 @@ class ClipWriter:
         self.frames += 1
         self.points += len(frame.scan.points_m)
         self.boxes += len(frame.labels.boxes)
+        labels = frame.labels
+        self.labels.add(labels.track_id, labels.boxes, labels.discontinuity, labels.num_points)
 
     def close(self) -> ClipRecord:
         if not self.frames:
@@ -100,6 +104,7 @@ class ClipWriter:
             boxes=self.boxes,
             start_s=self.start_s,
             files=tuple(sorted(files, key=lambda f: f.path)),
+            labels=self.labels.to_dict(),
         )
 
     def __enter__(self) -> ClipWriter:
@@ -165,6 +170,9 @@ def finish_dataset(
     if format == "kitti" and scenario.get("dataset", {}).get("kitti_images"):
         files += write_placeholder_images(root, [(c.clip_index, c.frames) for c in clips])
     val = val_clips([c.clip_index for c in clips])
+    statistics = LabelStatistics.empty()
+    for clip in clips:
+        statistics = statistics.merged(LabelStatistics.from_dict(clip.labels))
     manifest = Manifest(
         format=format,
         schema_version=SCHEMA_VERSION,
@@ -178,6 +186,7 @@ def finish_dataset(
             for c in clips
         ),
         files=tuple(sorted(files, key=lambda f: f.path)),
+        labels=statistics.summary(),
     )
     write_card(root, manifest)  # first: a dataset whose manifest exists always has its card
     write_bytes(root, MANIFEST_NAME, manifest_bytes(manifest), len(manifest.files))

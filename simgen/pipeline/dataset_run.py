@@ -176,6 +176,7 @@ def run_assemble(job: Job, progress: Progress) -> dict:
     from simgen.datasets.parquet import labelled_frames
     from simgen.datasets.records import ClipRecord
     from simgen.datasets.write import ClipWriter
+    from simgen.labels.statistics import LabelStatistics
     from simgen.pipeline.clip import clip_name
     from simgen.scan.sensor_rig import sensor_infos
 
@@ -185,9 +186,12 @@ def run_assemble(job: Job, progress: Progress) -> dict:
     shards = [ClipRecord.from_dict(json.loads(shard_marker(root, job.clip_index, first).read_text())) for first, _ in plan["shards"]]
     fmt, name = scenario.dataset.format, clip_name(job.clip_index)
     if writes_in_place(fmt, len(shards)):
+        labels = LabelStatistics.empty()
+        for shard in shards:
+            labels = labels.merged(LabelStatistics.from_dict(shard.labels))
         record = ClipRecord(
             fmt, name, job.clip_index, sum(s.frames for s in shards), sum(s.points for s in shards), sum(s.boxes for s in shards),
-            shards[0].start_s, tuple(sorted((f for s in shards for f in s.files), key=lambda f: f.path)),
+            shards[0].start_s, tuple(sorted((f for s in shards for f in s.files), key=lambda f: f.path)), labels.to_dict(),
         )
     else:
         with ClipWriter(root, fmt, name, job.clip_index, sensor_infos(scenario)) as writer:

@@ -12,6 +12,7 @@ import scan_patterns as sp
 from simgen.datasets.reader import Dataset
 from simgen.qa import plots
 from simgen.qa.checks import Check
+from simgen.labels.statistics import summary_rows
 from simgen.qa.dataset import DatasetQA, dataset_qa
 from simgen.qa.integrity import Verification, verify_dataset
 from simgen.qa.pattern import HeadQA, sensor_qa
@@ -163,6 +164,10 @@ def dataset_report(dataset: Dataset, tol: Tolerances, out_dir: Path, max_frames:
                 ((f"{PLOTS}/humanoids.png", "points per humanoid"),), (_humanoid_table(qa),)),
         Section("Frames: points, dropout, misses, intensity", "", ((f"{PLOTS}/frames.png", "frame statistics"),),
                 (_frames_table(qa),)),
+        Section("Labels: how boxes change from frame to frame, and their points",
+                "Every clip's boxes as the dataset was written (manifest.json `labels`; pairs of consecutive frames of a "
+                "track, none across a placement).", (),
+                (Table(("quantity", "median", "90th percentile", "99th percentile"), tuple(summary_rows(manifest.labels))),)),
         _integrity_section(verification, dataset.root),
     ]
     scenario = manifest.scenario.get("name", "?")
