@@ -208,7 +208,9 @@ def test_points_carry_the_sweep_of_their_shot(motion_clip):
         assert scan.time_offset_s[scan.sweep == 0].max() <= 0.05 + 1e-6 < scan.time_offset_s[scan.sweep == 1].min() + 1e-6
     single = parse_scenario({"name": "t", "scan": {"frames": 4}})
     assert all((f.scan.sweep == 0).all() for f in render_clip(single, motion_clip, 0))
-    for whole, shard in zip(frames[2:], render_frames(scenario, motion_clip, 0, 2, 4)):
+    shards = list(render_frames(scenario, motion_clip, 0, 2, 4))
+    assert len(frames) == 4 and len(shards) == 2
+    for whole, shard in zip(frames[2:], shards, strict=True):
         assert shard.index == whole.index
         for name in ("points_m", "intensity", "time_offset_s", "sweep", "instance_id"):
             np.testing.assert_array_equal(getattr(shard.scan, name), getattr(whole.scan, name))

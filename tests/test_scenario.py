@@ -106,4 +106,4 @@ def test_any_motion_section_is_valid_or_one_line_error(motion):
     else:
         assert isinstance(scenario, Scenario)
         assert scenario.motion.frames >= 1 and scenario.motion.skip_s >= 0
-        assert yaml.safe_dump(scenario.model_dump())
+        assert parse_scenario(yaml.safe_load(yaml.safe_dump(scenario.model_dump()))) == scenario  # round-trips

@@ -34,7 +34,8 @@ def test_config_trackers_track_as_the_code_defaults():
     ab3dmot = load_tracker_configs(TRACKER_CONFIGS)[0]
     for config, reference in ((full, DiouTracker(DiouTrackerConfig())), (ab3dmot, Ab3dmot())):
         got, want = track_clip(make_tracker(config), tracklets), track_clip(reference, tracklets)
-        for a, b in zip(got, want):
+        assert len(got) == len(want) == 60
+        for a, b in zip(got, want, strict=True):
             np.testing.assert_array_equal(a.ids, b.ids)
             np.testing.assert_array_equal(a.boxes, b.boxes)
 
