@@ -10,10 +10,17 @@ import resource
 import subprocess
 import sys
 import tempfile
+import time
 from collections.abc import Callable
 from pathlib import Path
 
 from conftest import ROOT
+from hypothesis import HealthCheck, given, settings
+from hypothesis.strategies import SearchStrategy
+
+SETTINGS = dict(deadline=None, suppress_health_check=list(HealthCheck), database=None)
+MAX_SECONDS_EACH = 2.0  # CPU seconds of this process per refusal; a real process adds its start-up
+MAX_GROWTH_BYTES = 256 << 20  # peak memory of this process, over all the generated cases
 
 
 def run_main(main: Callable[[list[str]], int], *arguments) -> tuple[int, str, str]:
@@ -31,6 +38,34 @@ def assert_one_line_refusal(code: int, out: str, err: str, what: object) -> None
     assert code == 2, (what, code, out, err)
     assert out == "" and err.endswith("\n") and err.count("\n") == 1, (what, out, err)
     assert "Traceback" not in err, (what, err)
+
+
+def refuse_generated(strategy: SearchStrategy, examples: int,
+                     prepare: Callable[[object], tuple[str, object, Callable[[], tuple[int, str, str]]]], what: str) -> dict[str, int]:
+    """Draw `examples` cases from `strategy`; `prepare(case)` gives (kind, context for a failure, the refusal to
+    run -> exit code, stdout, stderr). Each must be refused in one line, within MAX_SECONDS_EACH CPU seconds of
+    this process (what the refusal costs, whatever the machine's load), and all of them within
+    MAX_GROWTH_BYTES of peak memory. Returns the cases per kind."""
+    kinds: dict[str, int] = {}
+    slowest = [0.0]
+    peak = peak_bytes()
+
+    @settings(max_examples=examples, **SETTINGS)
+    @given(strategy)
+    def check(case):
+        kind, context, refusal = prepare(case)
+        started = time.process_time()
+        code, out, err = refusal()
+        slowest[0] = max(slowest[0], time.process_time() - started)
+        assert_one_line_refusal(code, out, err, (kind, context))
+        kinds[kind] = kinds.get(kind, 0) + 1
+
+    check()
+    print(f"{sum(kinds.values())} {what} in {len(kinds)} kinds refused; slowest {slowest[0]:.2f} CPU s; "
+          f"peak memory +{(peak_bytes() - peak) / 2**20:.0f} MiB")
+    assert slowest[0] < MAX_SECONDS_EACH
+    assert peak_bytes() - peak < MAX_GROWTH_BYTES
+    return kinds
 
 
 def peak_bytes() -> int:

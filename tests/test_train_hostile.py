@@ -17,7 +17,6 @@ import os
 import shutil
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -25,8 +24,8 @@ import torch
 import yaml
 from conftest import ROOT
 from detector_support import smoke_dataset, tiny_config
-from hostile_support import assert_one_line_refusal, measured_process, peak_bytes, run_main
-from hypothesis import HealthCheck, given, settings
+from hostile_support import SETTINGS, assert_one_line_refusal, measured_process, refuse_generated, run_main
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from simgen.errors import UserError
@@ -45,11 +44,8 @@ DETECTOR_CONFIGS = 300
 TRACKER_CONFIGS = 100
 CHECKPOINTS = 100
 ARGUMENT_SETS = 150
-MAX_SECONDS_EACH = 2.0  # CPU seconds of this process per case
-MAX_GROWTH_BYTES = 256 << 20  # peak memory of this process, over all the generated cases
 MAX_PROCESS_BYTES = 1 << 30
 MAX_PROCESS_SECONDS = 30.0
-SETTINGS = dict(deadline=None, suppress_health_check=list(HealthCheck), database=None)
 # Memory no machine has: a case needing more is refused wherever the tests run.
 BEYOND_ANY_MACHINE = 4 << 40
 
@@ -334,27 +330,14 @@ def _write(path: Path, document: dict | bytes) -> None:
 
 def _check_generated(world, strategy, examples: int, run_case) -> dict[str, int]:
     """Every case `strategy` draws through `run_case` (-> CLI arguments): refused in one line, in bounded CPU time
-    and memory, nothing written to the outputs."""
-    kinds: dict[str, int] = {}
-    slowest = [0.0]
-    peak = peak_bytes()
+    and memory (hostile_support.refuse_generated), nothing written to the outputs."""
 
-    @settings(max_examples=examples, **SETTINGS)
-    @given(strategy)
-    def check(case):
+    def prepare(case):
         kind, arguments = run_case(case)
-        started = time.process_time()
-        code, out, err = run_main(main, *arguments)
-        slowest[0] = max(slowest[0], time.process_time() - started)
-        assert_one_line_refusal(code, out, err, (kind, case))
-        kinds[kind] = kinds.get(kind, 0) + 1
+        return kind, case, lambda: run_main(main, *arguments)
 
-    check()
+    kinds = refuse_generated(strategy, examples, prepare, "cases")
     assert _listing(world["out"]) == _listing(world["datasets"]) == []  # nothing written, not even an output folder
-    print(f"{sum(kinds.values())} cases in {len(kinds)} kinds refused; slowest {slowest[0]:.2f} CPU s; "
-          f"peak memory +{(peak_bytes() - peak) / 2**20:.0f} MiB")
-    assert slowest[0] < MAX_SECONDS_EACH
-    assert peak_bytes() - peak < MAX_GROWTH_BYTES
     return kinds
 
 
