@@ -1,6 +1,6 @@
 """Humanoid meshes per second of simgen.body.mesh.body_meshes against trimesh posing the same meshes.
 
-Each call poses H humanoids (random poses of simgen.motion.synthetic_poses spread over the pitch) and
+Each call poses H humanoids (random poses of tests.support.poses spread over the pitch) and
 returns their vertices, shared faces and per-face materials. Baseline, in the same run, the way a
 trimesh user poses prebuilt meshes: the same part meshes (`part_templates`) and each humanoid's joined
 faces kept once, then per call every part's vertices moved by `trimesh.transformations.transform_points`
@@ -16,6 +16,7 @@ Usage: .venv/bin/python benchmarks/bench_body.py [--out benchmarks/results/body.
 """
 
 import argparse
+import sys
 import time
 import timeit
 from collections.abc import Callable
@@ -26,9 +27,12 @@ import trimesh
 from table import machine, markdown_table, row, write_results
 from trimesh.transformations import transform_points
 
-from simgen.body import mesh as body
-from simgen.motion.synthetic_poses import keypoints, random_pose
-from simgen.vocab import TEAM_NAMES
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # this tree's packages, and tests.support's poses
+
+from simgen.body import mesh as body  # noqa: E402
+from simgen.vocab import TEAM_NAMES  # noqa: E402
+from tests.support.poses import keypoints, random_pose  # noqa: E402
 
 HUMANOIDS = (1, 25, 100)
 REPEATS = 5  # timing runs of at least 0.2 s each; the best counts

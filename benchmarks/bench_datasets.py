@@ -1,7 +1,7 @@
 """Bytes per frame and write / read frames per second of each dataset format, against what a user would pick.
 
 Frames shaped like a Mid-100 x1 frame: about 25,000 points and 25 humanoids, from
-tests/dataset_factory.py (synthetic: ground points round a sensor at the touchline with 2 cm
+tests/support/datasets.py (synthetic: ground points round a sensor at the touchline with 2 cm
 range noise, points on the humanoids, random intensities; real scans compress somewhat
 differently). Write: `write_clip` + `finish_dataset` of one clip (every file hashed for the
 manifest). Read: `simgen.datasets.open` and every frame's points, with every file's sha256 checked
@@ -31,12 +31,11 @@ import pyarrow.parquet as pq
 from table import machine, markdown_table, write_results
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
-
-from dataset_factory import make_clip, sensors  # noqa: E402
+sys.path.insert(0, str(ROOT))  # this tree's packages, and tests.support's synthetic frames
 
 import simgen.datasets  # noqa: E402
 from simgen.datasets import FORMATS, finish_dataset, parquet, write_clip  # noqa: E402
+from tests.support.datasets import make_clip, sensors  # noqa: E402
 
 POINTS = 25_000
 HUMANOIDS = 25

@@ -1,6 +1,6 @@
 """Tracking benchmark: frames per second of the 3D DIoU tracker and of AB3DMOT, 22 players, one core.
 
-Both trackers run over the same synthetic clip (train.tracking.synthetic: 22 players on the pitch
+Both trackers run over the same synthetic clip (tests.support.tracking_clips: 22 players on the pitch
 at 10 Hz with scripted meetings and crossings; tracklets with noise, missed runs, fused pairs,
 false and duplicate detections), alternating rounds with a baseline so that load on the shared
 machine hits all alike. Baseline: the bare per-frame cost of an unpruned association, two 22 x 22
@@ -22,6 +22,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import statistics  # noqa: E402
+import sys  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -30,12 +31,16 @@ import numpy as np  # noqa: E402
 from scipy.optimize import linear_sum_assignment  # noqa: E402
 from table import machine, markdown_table, row, write_results  # noqa: E402
 
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # this tree's packages, and tests.support's synthetic clips
+
+
+from tests.support.tracking_clips import NOISY_DETECTOR, PlayersConfig, make_tracklets, simulate_players  # noqa: E402
 from train.geometry import diou_3d  # noqa: E402
 from train.metrics.hota import hota  # noqa: E402
 from train.metrics.tracking import evaluate_tracking  # noqa: E402
 from train.tracking.ab3dmot import Ab3dmot  # noqa: E402
 from train.tracking.diou_tracker import DiouTracker, DiouTrackerConfig  # noqa: E402
-from train.tracking.synthetic import NOISY_DETECTOR, PlayersConfig, make_tracklets, simulate_players  # noqa: E402
 from train.tracking.types import Tracklets  # noqa: E402
 
 WEIGHTS = DiouTrackerConfig().weights

@@ -2,7 +2,7 @@
 
 Usage: python scripts/measure_box_margins.py [--poses N] [--seed S] [--clip motion.parquet]
 
-For the presets and N random poses of simgen.motion.synthetic_poses (each at a random yaw), or for every
+For the presets and N random poses of tests.support.poses (each at a random yaw), or for every
 skeleton of a captured clip, per face of the label box, in metres:
 - reach: how far the body mesh reaches beyond the keypoints (the margins a box drawn around
   the keypoints alone would need), largest and median over poses;
@@ -12,14 +12,18 @@ skeleton of a captured clip, per face of the label box, in metres:
 """
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
 
-from simgen.body.mesh import body_meshes
-from simgen.labels.boxes import FACE_NAMES, boxes_from_keypoints, overhang
-from simgen.motion.clip_io import read_clip
-from simgen.motion.synthetic_poses import PRESETS, keypoints, random_pose
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # this tree's packages, and tests.support's poses (a measurement, like benchmarks/)
+
+from simgen.body.mesh import body_meshes  # noqa: E402
+from simgen.labels.boxes import FACE_NAMES, boxes_from_keypoints, overhang  # noqa: E402
+from simgen.motion.clip_io import read_clip  # noqa: E402
+from tests.support.poses import PRESETS, keypoints, random_pose  # noqa: E402
 
 
 def main() -> None:

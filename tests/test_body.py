@@ -20,9 +20,9 @@ from simgen.body.mesh import (
     part_frames,
     part_templates,
 )
-from simgen.motion.synthetic_poses import PRESETS, keypoints, lying_keypoints, random_pose
 from simgen.vocab import KEYPOINT_INDEX as I
 from simgen.vocab import TEAM_NAMES
+from tests.support.poses import PRESETS, keypoints, lying_keypoints, random_pose
 
 
 def _poses(count: int, seed: int = 0) -> np.ndarray:

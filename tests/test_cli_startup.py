@@ -3,38 +3,18 @@ the engine, numba): they are imported only by the commands that use them."""
 
 from __future__ import annotations
 
-import json
 import subprocess
 import sys
 
 import pytest
 
-from conftest import ROOT
-
-HEAVY = ("open3d", "trimesh", "torch", "gfootball", "gfootball_engine")
-PROBE = """
-import sys
-from simgen.cli import main
-try:
-    main(sys.argv[1:])
-except SystemExit:
-    pass
-import json
-loaded = {name.split(".")[0] for name in sys.modules}
-print("IMPORTED " + json.dumps(sorted(loaded & set(%r | {"numba"}))), file=sys.stderr)
-"""
-
-
-def _imported(*arguments: str) -> set[str]:
-    """Which of HEAVY and numba a `simgen` command line imports."""
-    result = subprocess.run([sys.executable, "-c", PROBE % (set(HEAVY),), *arguments], capture_output=True, text=True, cwd=ROOT)
-    line = next(line for line in result.stderr.splitlines() if line.startswith("IMPORTED "))
-    return set(json.loads(line.removeprefix("IMPORTED ")))
+from tests.support import ROOT
+from tests.support.processes import HEAVY, imported_heavy
 
 
 @pytest.mark.parametrize("arguments", [("--help",), ("generate", "--help"), ("pattern", "--help"), ("validate", "scenarios/smoke.yaml")])
 def test_help_and_validate_import_no_heavy_library(arguments):
-    imported = _imported(*arguments)
+    imported = imported_heavy(*arguments)
     assert imported & (set(HEAVY) | {"numba"}) == set()
 
 

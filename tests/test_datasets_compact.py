@@ -9,12 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import run_simgen
-from dataset_factory import make_clip, write_dataset
-from test_cli_startup import HEAVY, _imported
 
 import simgen.datasets
 from simgen.errors import UserError
+from tests.support.datasets import make_clip, write_dataset
+from tests.support.processes import HEAVY, imported_heavy, run_simgen
 
 POINT_FIELDS = ("intensity", "time_offset_s", "sensor", "head", "sweep", "instance_id", "semantic")
 
@@ -88,7 +87,7 @@ def test_pack_and_unpack_are_byte_identical_when_repeated(dataset, packed, tmp_p
 
 
 def test_unpack_needs_no_heavy_library(packed, tmp_path):
-    assert _imported("unpack", str(packed), "-o", str(tmp_path / "out")) & set(HEAVY) == set()
+    assert imported_heavy("unpack", str(packed), "-o", str(tmp_path / "out")) & set(HEAVY) == set()
     assert (tmp_path / "out" / "manifest.json").is_file()
 
 

@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from dataset_factory import make_clip, sample_clips, sensors, write_dataset
 
 import simgen.datasets
 import simgen.datasets.parquet
@@ -16,6 +15,7 @@ from simgen.datasets.manifest import MANIFEST_NAME
 from simgen.datasets.schema import SCHEMA_VERSION
 from simgen.errors import UserError
 from simgen.labels.labelled_frame import LabelledFrame
+from tests.support.datasets import make_clip, sample_clips, sensors, write_dataset
 
 CLIPS = sample_clips()[:2]
 # A file of each kind, per format, and the frame that reads it.

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from dataset_factory import make_clip, sensors
 
 from simgen.datasets import kitti_camera as camera
 from simgen.datasets.kitti import UNKNOWN_OCCLUSION, label_lines, parse_labels
+from tests.support.datasets import make_clip, sensors
 
 
 def _boxes(rng: np.random.Generator, n: int, height_m: float) -> np.ndarray:
@@ -129,7 +129,7 @@ def test_the_openpcdet_card_gives_a_class_map_and_a_dataset_yaml_that_fit_the_da
     import re
 
     import yaml
-    from dataset_factory import write_dataset
+    from tests.support.datasets import write_dataset
 
     from simgen.datasets import openpcdet_config
 

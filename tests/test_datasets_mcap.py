@@ -9,7 +9,6 @@ import dataclasses
 import numpy as np
 import pytest
 import yaml
-from dataset_factory import make_clip, sensors, write_dataset
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rosbags.highlevel import AnyReader
@@ -23,6 +22,7 @@ from simgen.datasets.ros2_bag import (BOXES_TOPIC, LIVOX_LAYOUT, SIMGEN_LAYOUT, 
                                      points_topic)
 from simgen.qa.sensors import sensor_geometry
 from simgen.scan.sensor_info import SensorInfo
+from tests.support.datasets import make_clip, sensors, write_dataset
 
 SECOND = SensorInfo(1, "mid40 far", "mid40-risley", (10.0, 36.0, 6.0, 0.0, -15.0, -90.0), 1, 100_000.0, 10.0, 1, 1.0)
 SENSORS = [*sensors(), SECOND]

@@ -15,7 +15,6 @@ import pyarrow as pa
 import pyarrow.dataset as ds
 import pyarrow.parquet as pq
 import pytest
-from dataset_factory import sample_clips, sensors, write_dataset
 
 import simgen.datasets
 from simgen.datasets.manifest import MANIFEST_NAME
@@ -23,6 +22,7 @@ from simgen.datasets.records import sha256_file
 from simgen.datasets.schema import CLIP_TABLES, METADATA_KEY, SCHEMA_VERSION, TABLES
 from simgen.errors import UserError
 from simgen.labels.labelled_frame import LabelledFrame
+from tests.support.datasets import sample_clips, sensors, write_dataset
 
 CLIPS = sample_clips()
 POINTS = sum(len(f.scan.points_m) for frames in CLIPS for f in frames)
@@ -128,7 +128,7 @@ def test_partial_clips_read_back_and_rewritten_give_the_same_bytes(tmp_path, mon
     """What `simgen generate` does with a clip's shards: each shard streams its frame range into a
     partial clip; the partial clips, read back in order, stream into the final files, whose bytes
     must be those of the clip written in one go (row groups of frames and boxes spanning shards)."""
-    from dataset_factory import make_clip, sensors
+    from tests.support.datasets import make_clip, sensors
 
     from simgen.datasets import parquet
     from simgen.datasets.parquet import labelled_frames
@@ -154,7 +154,7 @@ def test_partial_clips_read_back_and_rewritten_give_the_same_bytes(tmp_path, mon
 
 
 def test_frames_read_in_any_order_from_row_groups_of_several_frames(tmp_path, monkeypatch):
-    from dataset_factory import make_clip
+    from tests.support.datasets import make_clip
 
     from simgen.datasets import parquet
 

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from dataset_factory import sample_clips, sensors, write_dataset
 
 import simgen.datasets
 from simgen.datasets import FORMATS
 from simgen.datasets.frame import class_names
 from simgen.errors import UserError
+from tests.support.datasets import sample_clips, sensors, write_dataset
 
 CLIPS = sample_clips()
 

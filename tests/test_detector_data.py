@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 import torch
-from detector_support import smoke_dataset, tiny_config
 
 import simgen.datasets
+from tests.support.detector import smoke_dataset, tiny_config
 from train.data import Sample, augment, crop, load_sample, model_points, pillar_cells
 from train.models.box_coder import apply_direction, decode, direction_bin, encode
 from train.models.detector import build_detector
@@ -39,7 +39,7 @@ def test_boxes_before_a_placement_are_masked(tmp_path):
     (another segment of its motion), and the sample at t = 3 says it was placed."""
     from dataclasses import replace
 
-    from dataset_factory import make_clip, write_dataset
+    from tests.support.datasets import make_clip, write_dataset
 
     frames = make_clip("clip_0000", 6, humanoids=4)
     frames = [replace(f, labels=replace(f.labels, discontinuity=np.array([f.index == 3, False, False, False]))) for f in frames]
@@ -151,7 +151,7 @@ def test_the_data_layer_does_not_import_the_models():
     import subprocess
     import sys
 
-    from conftest import ROOT
+    from tests.support import ROOT
 
     code = "import sys, train.data; print(sorted(m for m in sys.modules if m.startswith('train.models')))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
@@ -162,7 +162,7 @@ def test_the_data_layer_does_not_import_the_models():
 def test_no_training_window_shares_a_frame_with_a_val_window(tmp_path, protocol):
     """Both splits: train and val windows (t-2..t) never share a frame; `frame` holds out about one clip's
     frames spread over every clip, `clip` whole clips."""
-    from dataset_factory import make_clip, write_dataset
+    from tests.support.datasets import make_clip, write_dataset
 
     from train.data import sample_keys
 

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 import torch
 import yaml
-from detector_support import tiny_config
 
 from simgen.errors import UserError
+from tests.support.detector import tiny_config
 from train.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from train.config import load_config, parse_config
 from train.data import Encoded, Sample, collate, encode_sample

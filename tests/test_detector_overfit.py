@@ -2,8 +2,8 @@
 
 import pytest
 import torch
-from detector_support import smoke_dataset, tiny_config
 
+from tests.support.detector import smoke_dataset, tiny_config
 from train.checkpoint import load_checkpoint
 from train.evaluate import evaluate, mean_ap
 from train.fit import fit

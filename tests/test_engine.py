@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import ROOT, run_simgen
-from test_motion_clip import assert_plausible_skeletons
 
 from simgen.motion.clip_io import read_clip
+from tests.support import ROOT
+from tests.support.clips import assert_plausible_skeletons
+from tests.support.processes import run_simgen
 
 pytestmark = pytest.mark.engine
 SMOKE = ROOT / "scenarios" / "smoke.yaml"

@@ -16,8 +16,9 @@ import pytest
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from conftest import ROOT, local_ray_cluster, run_simgen
 import simgen.datasets as datasets
+from tests.support import ROOT
+from tests.support.processes import local_ray_cluster, run_simgen
 
 pytestmark = pytest.mark.engine
 SMOKE = ROOT / "scenarios" / "smoke.yaml"

@@ -15,19 +15,26 @@ from pathlib import Path
 
 import pytest
 import yaml
-from dataset_factory import sample_clips, write_dataset
-from hostile_support import (MAX_GROWTH_BYTES, SETTINGS, assert_one_line_refusal, measured_process, peak_bytes,
-                             refuse_generated, run_main)
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import simgen.datasets as datasets
-from conftest import ROOT
 from simgen.cli import main
 from simgen.datasets import FORMATS
 from simgen.datasets.manifest import MANIFEST_NAME
 from simgen.errors import UserError
 from simgen.validation import MAX_YAML_BYTES, MAX_YAML_DEPTH, MAX_YAML_NODES
+from tests.support import ROOT
+from tests.support.datasets import sample_clips, write_dataset
+from tests.support.hostile import (
+    MAX_GROWTH_BYTES,
+    SETTINGS,
+    assert_one_line_refusal,
+    measured_process,
+    peak_bytes,
+    refuse_generated,
+    run_main,
+)
 
 HOSTILE_SCENARIOS = 1000
 CORRUPT_MANIFESTS = 500

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from dataset_factory import make_clip, write_dataset
 
 from simgen.labels.statistics import HEADING_BIN_DEG, SIZE_BIN_M, LabelStatistics
+from tests.support.datasets import make_clip, write_dataset
 
 BOX = [0.0, 0.0, 0.9, 0.6, 0.5, 1.8, 0.0]
 

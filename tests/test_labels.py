@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 from simgen.body.heading import DEFAULT, HIPS, SHOULDERS, SPINE, VELOCITY, heading, wrap_angle
 from simgen.body.mesh import body_meshes
 from simgen.labels.boxes import FACE_NAMES, boxes_from_keypoints, overhang
-from simgen.motion.synthetic_poses import PRESETS, Pose, keypoints, lying_keypoints, random_pose
 from simgen.vocab import KEYPOINT_INDEX as I
+from tests.support.poses import PRESETS, Pose, keypoints, lying_keypoints, random_pose
 
 TOLERANCE_M = 0.02
 

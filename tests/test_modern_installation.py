@@ -4,9 +4,9 @@ every point carries the laser that fired it."""
 from __future__ import annotations
 
 import numpy as np
-from conftest import run_simgen
 
 import simgen.datasets
+from tests.support.processes import run_simgen
 
 
 def test_four_mid360_generate_verify_and_view_with_each_points_laser(tmp_path):

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from clip_factory import still_clip
 
-from simgen.motion.synthetic_poses import PRESETS, keypoints
 from simgen.render.frame import render_frame
 from simgen.render.noise import max_range_m, noisy_returns
 from simgen.render.world import World
@@ -14,6 +12,8 @@ from simgen.scan.rays import Rays
 from simgen.scenario import NoiseConfig
 from simgen.scene.static import build_static_scene
 from simgen.vocab import BALL
+from tests.support.clips import still_clip
+from tests.support.poses import PRESETS, keypoints
 
 HEIGHT_M = 10.0
 

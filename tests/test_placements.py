@@ -9,8 +9,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import yaml
-from clip_factory import still_clip
-from conftest import ROOT, run_simgen
 
 from simgen.labels.boxes import boxes_from_keypoints
 from simgen.motion.clip_io import read_clip, write_clip
@@ -19,6 +17,9 @@ from simgen.pipeline.clip import engine_seed, render_clip
 from simgen.qa.label_checks import in_box
 from simgen.scenario import load_scenario, parse_scenario
 from simgen.vocab import KEYPOINT_INDEX
+from tests.support import ROOT
+from tests.support.clips import still_clip
+from tests.support.processes import run_simgen
 
 PAPER_X1 = load_scenario(ROOT / "scenarios" / "paper_x1.yaml")
 FRAME_RATE_HZ = 11

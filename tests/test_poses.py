@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simgen.motion.synthetic_poses import ANKLE_HEIGHT_M, PRESETS, Pose, keypoints, random_pose
 from simgen.vocab import KEYPOINT_INDEX as I
+from tests.support.poses import ANKLE_HEIGHT_M, PRESETS, Pose, keypoints, random_pose
 
 
 def test_standing_adult_heights():

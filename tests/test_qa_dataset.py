@@ -9,10 +9,11 @@ import cv2
 import numpy as np
 import open3d as o3d
 import pytest
-from conftest import ROOT, run_simgen
 
 import simgen.datasets as datasets
 from simgen.qa.report import data_uri
+from tests.support import ROOT
+from tests.support.processes import run_simgen
 
 pytestmark = pytest.mark.engine
 FRAMES = 6

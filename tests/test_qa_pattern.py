@@ -9,13 +9,13 @@ import subprocess
 import cv2
 import pytest
 import yaml
-import chromium
-from conftest import ROOT, run_simgen
 
 from simgen.cli import main
 from scan_patterns import HeadSpec
 from simgen.qa.pattern import head_qa
 from simgen.qa.tolerances import DEFAULT_PATH, load_tolerances
+from tests.support import ROOT, chromium
+from tests.support.processes import run_simgen
 
 
 @pytest.fixture(scope="module")

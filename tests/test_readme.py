@@ -17,7 +17,9 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, local_ray_cluster
+
+from tests.support import ROOT
+from tests.support.processes import local_ray_cluster
 
 pytestmark = pytest.mark.engine
 README = ROOT / "README.md"

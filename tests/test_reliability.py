@@ -22,9 +22,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import simgen.datasets as datasets
-from conftest import ROOT, local_ray_cluster, run_simgen
 from simgen.errors import UserError
 from simgen.scenario import parse_scenario
+from tests.support import ROOT
+from tests.support.processes import local_ray_cluster, run_simgen
 
 SMOKE = ROOT / "scenarios" / "smoke.yaml"
 KILL_ROUNDS = 6  # generation runs killed at a random moment (each then resumed, maybe killed again)

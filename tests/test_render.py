@@ -4,17 +4,17 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from clip_factory import still_clip
 
 from simgen.body.mesh import body_meshes
 from simgen.motion.clip import MotionClip
-from simgen.motion.synthetic_poses import PRESETS, keypoints
 from simgen.render.frame import render_frame
 from simgen.render.world import World
 from simgen.scan.rays import Rays
 from simgen.scenario import NoiseConfig
 from simgen.scene.static import build_static_scene
 from simgen.vocab import BALL, GROUND, KEYPOINT_INDEX, LINE, PLAYER, SURROUNDINGS
+from tests.support.clips import still_clip
+from tests.support.poses import PRESETS, keypoints
 
 EXACT = NoiseConfig(enabled=False, min_range_m=0.0)
 

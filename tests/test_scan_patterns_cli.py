@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from simgen.cli import main
-from conftest import run_simgen
+from tests.support.processes import run_simgen
 
 
 def test_mid40_risley_export_is_the_official_file(tmp_path):

@@ -7,9 +7,10 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import ROOT, run_simgen
 from simgen.errors import UserError
 from simgen.scenario import Scenario, load_scenario, parse_scenario
+from tests.support import ROOT
+from tests.support.processes import run_simgen
 
 
 @pytest.mark.parametrize("path", sorted((ROOT / "scenarios").glob("*.yaml")), ids=lambda p: p.name)

@@ -8,11 +8,11 @@ import shutil
 import pytest
 import torch
 import yaml
-from conftest import ROOT
-from detector_support import SMOKE, tiny_config
-from hostile_support import run_main
 
 import simgen.datasets
+from tests.support import ROOT
+from tests.support.detector import SMOKE, tiny_config
+from tests.support.hostile import run_main
 from train.checkpoint import load_checkpoint
 from train.cli import main
 from train.fit import fit

@@ -5,13 +5,13 @@ import pytest
 import yaml
 
 from simgen.errors import UserError
+from tests.support.tracking_clips import NOISY_DETECTOR, PlayersConfig, make_tracklets, simulate_players
 from train.nms import nms_bev, nms_centre
 from train.study import FILTER_REFERENCE, TRACKER_CONFIGS
 from train.tracking.ab3dmot import Ab3dmot
 from train.tracking.clip import track_clip
 from train.tracking.config import load_tracker_config, load_tracker_configs, make_tracker
 from train.tracking.diou_tracker import DiouTracker, DiouTrackerConfig
-from train.tracking.synthetic import NOISY_DETECTOR, PlayersConfig, make_tracklets, simulate_players
 from train.tracking.types import Tracklets
 from train.tracklet_filter import TrackletFilter, apply_filter, choose_filter, filter_tracklets
 

@@ -3,13 +3,7 @@
 import numpy as np
 import pytest
 
-from train.metrics.tracking import evaluate_tracking
-from train.study import FILTER_REFERENCE, TRACKER_CONFIGS
-from train.tracking.ab3dmot import Ab3dmot
-from train.tracking.clip import track_clip
-from train.tracking.config import load_tracker_configs, make_tracker
-from train.tracking.diou_tracker import DiouTracker, DiouTrackerConfig
-from train.tracking.synthetic import (
+from tests.support.tracking_clips import (
     FLOOD,
     MEDIUM_NOISE,
     NOISY_DETECTOR,
@@ -19,6 +13,12 @@ from train.tracking.synthetic import (
     make_tracklets,
     simulate_players,
 )
+from train.metrics.tracking import evaluate_tracking
+from train.study import FILTER_REFERENCE, TRACKER_CONFIGS
+from train.tracking.ab3dmot import Ab3dmot
+from train.tracking.clip import track_clip
+from train.tracking.config import load_tracker_configs, make_tracker
+from train.tracking.diou_tracker import DiouTracker, DiouTrackerConfig
 from train.tracking.types import TrackedFrame, Tracklets
 from train.tracklet_filter import TrackletFilter, apply_filter, choose_filter
 

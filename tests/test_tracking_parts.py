@@ -3,13 +3,13 @@
 import numpy as np
 import pytest
 
+from tests.support.tracking_clips import DetectionNoise, PlayersConfig, fuse_boxes, make_tracklets, simulate_players
 from train.geometry import diou_3d
 from train.tracking import life_cycle, motion_model
 from train.tracking.association import diou_affinity, diou_upper_bound, match
 from train.tracking.life_cycle import LifeCycleConfig
 from train.tracking.motion_model import KalmanConfig, KalmanState
 from train.tracking.split import SplitConfig, axis_gap, axis_mean, find_fusions, split_boxes
-from train.tracking.synthetic import DetectionNoise, PlayersConfig, fuse_boxes, make_tracklets, simulate_players
 
 PLAYER = np.array([0.0, 0.0, 0.9, 0.6, 0.8, 1.8, 0.0])
 

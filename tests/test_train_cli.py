@@ -7,9 +7,9 @@ import sys
 import numpy as np
 import pytest
 import yaml
-from conftest import ROOT
-from detector_support import smoke_dataset, tiny_config
 
+from tests.support import ROOT
+from tests.support.detector import smoke_dataset, tiny_config
 from train.cli import main
 from train.detections import read_tracklets
 

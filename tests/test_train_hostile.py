@@ -22,14 +22,14 @@ from pathlib import Path
 import pytest
 import torch
 import yaml
-from conftest import ROOT
-from detector_support import smoke_dataset, tiny_config
-from hostile_support import SETTINGS, assert_one_line_refusal, measured_process, refuse_generated, run_main
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from simgen.errors import UserError
 from simgen.validation import MAX_YAML_BYTES, MAX_YAML_DEPTH, MAX_YAML_NODES
+from tests.support import ROOT
+from tests.support.detector import smoke_dataset, tiny_config
+from tests.support.hostile import SETTINGS, assert_one_line_refusal, measured_process, refuse_generated, run_main
 from train.checkpoint import FORMAT, VERSION, Checkpoint, save_checkpoint
 from train.cli import main
 from train.config import (MAX_ANCHORS, MAX_BATCH, MAX_CHANNELS, MAX_DETECTIONS, MAX_GRID_CELLS, MAX_ITERATIONS, MAX_LAYERS,
@@ -330,7 +330,7 @@ def _write(path: Path, document: dict | bytes) -> None:
 
 def _check_generated(world, strategy, examples: int, run_case) -> dict[str, int]:
     """Every case `strategy` draws through `run_case` (-> CLI arguments): refused in one line, in bounded CPU time
-    and memory (hostile_support.refuse_generated), nothing written to the outputs."""
+    and memory (tests.support.hostile.refuse_generated), nothing written to the outputs."""
 
     def prepare(case):
         kind, arguments = run_case(case)

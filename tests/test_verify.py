@@ -7,8 +7,6 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from conftest import run_simgen
-from dataset_factory import sample_clips, write_dataset
 
 from simgen.cli import main
 from simgen.datasets import FORMATS
@@ -20,6 +18,8 @@ from simgen.qa.label_checks import box_problems, count_problems, track_problems
 from simgen.qa.tolerances import load_tolerances
 from simgen.render.frame import ScanFrame
 from simgen.vocab import GROUND, PLAYER
+from tests.support.datasets import sample_clips, write_dataset
+from tests.support.processes import run_simgen
 
 TOL = load_tolerances().labels
 BOX = [10.0, 5.0, 0.9, 0.6, 0.5, 1.8, 0.3]  # x, y, z, length, width, height, yaw

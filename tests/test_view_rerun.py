@@ -7,13 +7,13 @@ import numpy as np
 import pyarrow as pa
 import pytest
 import rerun as rr
-from dataset_factory import make_clip, sensors, write_dataset
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 import simgen.datasets
 from simgen.cli import main
 from simgen.datasets.ros2_bag import BOXES_TOPIC
+from tests.support.datasets import make_clip, sensors, write_dataset
 
 FRAMES = range(1, 6)
 

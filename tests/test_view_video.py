@@ -7,13 +7,13 @@ import json
 import cv2
 import numpy as np
 import pytest
-from chromium import evaluate, serve
-from dataset_factory import make_clip, write_dataset
 
 from simgen.cli import main
+from tests.support.chromium import evaluate, serve
+from tests.support.datasets import make_clip, write_dataset
 
 FRAMES = 12
-FPS = 10.0  # dataset_factory's sensor
+FPS = 10.0  # tests.support.datasets' sensor
 
 PAGE = """<!DOCTYPE html><html><body><video id="v" src="clip_0000.mp4" muted playsinline></video></body></html>"""
 

@@ -1,3 +1,3 @@
 """Motion: the football engine plays and its skeletons are recorded (`engine`), as a `MotionClip`
 (`clip`), kept on disk as Parquet (`clip_io`), read at any time between captured frames
-(`interpolate`); `synthetic_poses` makes keypoints from joint angles for tests and previews."""
+(`interpolate`). Keypoints from joint angles, for tests and benchmarks, are in tests/support/poses.py."""

@@ -14,9 +14,10 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from conftest import ROOT
 from hypothesis import HealthCheck, given, settings
 from hypothesis.strategies import SearchStrategy
+
+from tests.support import ROOT
 
 SETTINGS = dict(deadline=None, suppress_health_check=list(HealthCheck), database=None)
 MAX_SECONDS_EACH = 2.0  # CPU seconds of this process per refusal; a real process adds its start-up

@@ -1,4 +1,4 @@
-"""Synthetic humanoid keypoints from joint angles, for tests, benchmarks and previews.
+"""Synthetic humanoid keypoints from joint angles, for tests, benchmarks and scripts/measure_box_margins.py.
 
 The skeleton is the football engine's: its segment lengths are the same for every humanoid
 and every frame of a captured clip (tests/fixtures/motion_smoke.parquet), and are copied

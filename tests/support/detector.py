@@ -6,7 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from conftest import ROOT
+from tests.support import ROOT
 from train.config import DetectorConfig, parse_config
 
 SMOKE = ROOT / "scenarios" / "smoke.yaml"
