@@ -7,7 +7,6 @@ import pyarrow.parquet as pq
 import pytest
 
 from simgen.errors import UserError
-from simgen.motion.clip import MotionClip
 from simgen.motion.clip_io import read_clip, read_clip_arrays, write_clip, write_clip_arrays
 from simgen.vocab import KEYPOINT_INDEX
 from tests.support import MOTION_FIXTURE
