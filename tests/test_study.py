@@ -13,6 +13,7 @@ import simgen.datasets
 from tests.support import ROOT
 from tests.support.detector import SMOKE, tiny_config
 from tests.support.hostile import run_main
+from tests.support.tracking_clips import FULL_TRACKER
 from train.checkpoint import load_checkpoint
 from train.cli import main
 from train.fit import fit
@@ -151,13 +152,27 @@ def test_table2_has_every_tracker_at_both_ious(study):
     _, _, _, out, _ = study
     text = (out / "table2.md").read_text()
     assert "## 3D IoU >= 0.25, filtered tracklets" in text and "## 3D IoU >= 0.5, unfiltered tracklets, for comparison" in text
-    assert "(chosen)" in text and "Chosen on the train clips" in text
+    assert "each tracker gets its own filter, chosen on the train clips" in text
     rows = list(csv.DictReader(open(out / "table2.csv")))
     names = [c.name for c in load_tracker_configs(TRACKER_CONFIGS)]
+    # Each tracker's own filter: a row of the filter table, the one its filtered CSV rows name, and the bold
+    # (best) cell of its column in the grid chosen on the train clips.
+    lines = text.splitlines()
+    own_table = lines[lines.index("| Method | tracklet filter | val tracklets per frame |") + 2:]
+    own = dict(line[2:-2].split(" | ")[:2] for line in own_table[:own_table.index("")])
+    assert list(own) == names
+    assert all(r["filter"] == own[r["tracker"]] for r in rows if r["tracklets"] == "filtered")
+    grid = lines[lines.index("| Filter | tracklets per frame (train) | " + " | ".join(names) + " |"):]
+    cells = [line[2:-2].split(" | ") for line in grid[2:] if line.startswith("| ")]
+    for column, name in enumerate(names, start=2):
+        bold = [row[0] for row in cells if row[column].startswith("**")]
+        assert bold == [own[name]], (name, bold)
+        best = max(float(row[column].strip("*")) for row in cells)
+        assert float(next(row[column] for row in cells if row[0] == own[name]).strip("*")) == best
     assert [(r["tracker"], r["tracklets"], r["min_iou"]) for r in rows] == [
         (name, kind, iou) for kind in ("filtered", "unfiltered") for name in names for iou in ("0.25", "0.5")
     ]
-    assert names[0] == "AB3DMOT" and names[1] == "3D DIoU" and names[-1] == "3D DIoU + birth/death + split"
+    assert names[:3] == ["AB3DMOT", "AB3DMOT (player Kalman)", "3D DIoU"] and names[-1] == FULL_TRACKER
     assert all(0.0 <= float(r[k]) <= 1.0 for r in rows for k in ("samota", "amota", "amotp", "motp", "hota", "centre_hota"))
     assert all(int(r["n_gt"]) > 0 and int(r["tp"]) + int(r["fn"]) == int(r["n_gt"]) for r in rows)
     assert (out / "late" / "tracklets" / "clip_0001.npz").is_file()

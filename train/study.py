@@ -7,10 +7,11 @@
    weights (inference settings may differ: train.config.same_weights), and its boxes at t
    are scored on the `val` clips (train.evaluate: AP in BEV and 3D, IoU 0.5).
 3. Table 2: the `late` model's tracklets are filtered for tracking (train.tracklet_filter: a score
-   threshold and a tight NMS, chosen on the `train` clips by the full 3D DIoU tracker's sAMOTA),
-   then the `val` clips' go to every tracker of train/configs/tracking/ (AB3DMOT, the 3D DIoU
-   tracker with and without birth/death and split); their tracks are scored against the labels
-   (train.metrics), and so are the trackers' tracks of the unfiltered tracklets, for comparison.
+   threshold and a tight NMS, chosen for each tracker by its own sAMOTA on the `train` clips), then
+   the `val` clips' go to every tracker of train/configs/tracking/ (AB3DMOT with its own and with
+   the player Kalman filter, the 3D DIoU tracker with and without birth/death and split), each
+   through its own filter; their tracks are scored against the labels (train.metrics), and so are
+   the trackers' tracks of the unfiltered tracklets, for comparison.
 
 Ground truth, as for AP: the objects of the detector's classes whose centre at t lies in its
 point range, on every frame with two before it (the first frame a tracklet can describe).
@@ -48,7 +49,7 @@ from train.postprocess import Detections
 from train.tracking.clip import track_clip
 from train.tracking.config import TrackerConfig, load_tracker_configs, make_tracker
 from train.tracking.types import GroundTruthFrame, TrackedFrame, Tracklets
-from train.tracklet_filter import FilterScore, TrackletFilter, apply_filter, choose_filter
+from train.tracklet_filter import FilterScore, TrackletFilter, apply_filter, choose_filters
 
 MODELS = ("single", "early", "late")  # the paper's Table 1 methods
 TRACKED_MODEL = "late"
@@ -57,7 +58,6 @@ PAPER_ROWS = {1.0: ("single", "early", "late"), 2.0: ("single", "late")}
 MIN_IOUS = (0.25, 0.5)  # 3D IoU of a true positive: AB3DMOT's default, and the stricter one
 CONFIGS = Path(__file__).parent / "configs"
 TRACKER_CONFIGS = CONFIGS / "tracking"  # one YAML per Table 2 row, in file-name order
-FILTER_REFERENCE = "3D DIoU + birth/death + split"  # the tracker whose sAMOTA on the train clips picks the filter
 SCENARIOS = Path(__file__).parents[1] / "scenarios"
 # `--preset`: the paper's Tables 1 (all five rows) and 2 at its model size: (configs, (scenario, models) per study).
 PRESETS = {"paper": (CONFIGS / "paper", (("paper_x1.yaml", PAPER_ROWS[1.0]), ("paper_x2.yaml", PAPER_ROWS[2.0])))}
@@ -114,11 +114,11 @@ class TrackerResult:
 
 @dataclass(frozen=True)
 class FilterChoice:
-    """The tracklet filter and how it was chosen: every candidate's sAMOTA on the train clips."""
+    """A tracker's tracklet filter and how it was chosen: every candidate's sAMOTA on the train clips."""
 
     chosen: TrackletFilter
-    reference: str  # tracker
-    scores: list[FilterScore]
+    tracker: str
+    scores: list[FilterScore]  # in train.tracklet_filter.GRID order
     train_frames: int
     val_tracklets_per_frame: tuple[float, float]  # before and after the filter
 
@@ -128,7 +128,7 @@ class StudyResult:
     dataset: StudyDataset
     detectors: list[DetectorResult]
     trackers: list[TrackerResult]  # none with the frame split (no contiguous val sequence to track)
-    filter: FilterChoice | None
+    filters: dict[str, FilterChoice]  # tracker name -> its filter; empty with the frame split
     tracking_s: float
     seconds: float  # the whole study
     device: str
@@ -305,24 +305,27 @@ def tracklets_per_frame(clips: ClipSet, rule: TrackletFilter | None) -> float:
     return sum(len(f.scores) for f in kept) / max(1, len(kept))
 
 
-def choose_tracklet_filter(train: ClipSet, val: ClipSet, configs: list[TrackerConfig], progress: bool) -> FilterChoice:
-    """The filter of train.tracklet_filter.GRID that FILTER_REFERENCE tracks best on the train clips."""
-    reference = next((c for c in configs if c.name == FILTER_REFERENCE), None)
-    if reference is None:
-        raise UserError(f"tracker configs: none named {FILTER_REFERENCE!r}, whose sAMOTA chooses the tracklet filter")
+def choose_tracklet_filters(
+    train: ClipSet, val: ClipSet, configs: list[TrackerConfig], progress: bool
+) -> dict[str, FilterChoice]:
+    """Each tracker's filter of train.tracklet_filter.GRID: the one it tracks best on the train clips."""
     clips = [train.clip_frames(c) for c in train.clips]
-    chosen, scores = choose_filter(clips, [train.truth[c] for c in train.clips], reference, progress=progress)
-    frames = sum(len(c) for c in clips)
-    return FilterChoice(chosen, reference.name, scores, frames, (tracklets_per_frame(val, None), tracklets_per_frame(val, chosen)))
+    chosen = choose_filters(clips, [train.truth[c] for c in train.clips], configs, progress=progress)
+    frames, before = sum(len(c) for c in clips), tracklets_per_frame(val, None)
+    return {name: FilterChoice(rule, name, scores, frames, (before, tracklets_per_frame(val, rule)))
+            for name, (rule, scores) in chosen.items()}
 
 
-def track(val: ClipSet, configs: list[TrackerConfig], rule: TrackletFilter, progress: bool) -> list[TrackerResult]:
-    """Table 2: every tracker on every val clip, tracklets filtered by `rule` and unfiltered, scored at each of MIN_IOUS."""
+def track(
+    val: ClipSet, configs: list[TrackerConfig], filters: dict[str, FilterChoice], progress: bool
+) -> list[TrackerResult]:
+    """Table 2: every tracker on every val clip, tracklets filtered by its own filter and unfiltered, scored at each of
+    MIN_IOUS."""
     truth = [val.truth[c] for c in val.clips]
     results = []
     runs = [(config, filtered) for filtered in (True, False) for config in configs]
     for config, filtered in tqdm(runs, desc="track", unit="tracker", disable=not progress, dynamic_ncols=True):
-        tracks = run_tracker(config, val, rule if filtered else None)
+        tracks = run_tracker(config, val, filters[config.name].chosen if filtered else None)
         scores = (hota(truth, tracks), centre_hota(truth, tracks))
         results += [TrackerResult(config.name, filtered, iou, evaluate_tracking(truth, tracks, min_iou=iou), *scores)
                     for iou in MIN_IOUS]
@@ -348,9 +351,9 @@ def run_study(options: StudyOptions, scenario: Scenario) -> StudyResult:
                 write_tracklets(options.out / model / "tracklets" / f"{clip}.npz", clip_rows)
     began = time.perf_counter()
     val, train = tracked
-    choice, trackers = None, []
+    filters, trackers = {}, []
     if detectors[0].config.data.split == "clip":  # the frame split's val windows are scattered: nothing to track
-        choice = choose_tracklet_filter(train, val, configs, options.progress)
-        trackers = track(val, configs, choice.chosen, options.progress)
+        filters = choose_tracklet_filters(train, val, configs, options.progress)
+        trackers = track(val, configs, filters, options.progress)
     now = time.perf_counter()
-    return StudyResult(dataset, detectors, trackers, choice, now - began, now - start, options.device.type)
+    return StudyResult(dataset, detectors, trackers, filters, now - began, now - start, options.device.type)

@@ -61,13 +61,13 @@ def table2_seeds(results: Sequence[StudyResult], seeds: Sequence[int], command: 
     """Table 2 over seeds: sAMOTA at IoU 0.25 on the filtered tracklets, per tracker."""
     name = results[0].dataset.scenario.name
     lines = [f"# Table 2 on `{name}` over training seeds {', '.join(map(str, seeds))}", "", f"Command: `{command}`", ""]
-    if any(r.filter is None for r in results):
+    if any(not r.filters for r in results):
         return "\n".join(lines + ["Not run: the frame split has no contiguous val sequence to track."]) + "\n"
     trackers = [t.tracker for t in results[0].trackers if t.filtered and t.min_iou == TRACKING_IOU]
     samota = {t: [100 * next(x for x in r.trackers if x.tracker == t and x.filtered and x.min_iou == TRACKING_IOU).metrics.samota
                   for r in results] for t in trackers}
-    lines += ["sAMOTA in percent, 3D IoU >= 0.25, tracklets filtered by each seed's own rule (chosen on its train "
-              "clips); each seed's own tables are in `seed_<seed>/`.", "",
+    lines += ["sAMOTA in percent, 3D IoU >= 0.25, tracklets filtered by each tracker's own rule (chosen on each "
+              "seed's train clips); each seed's own tables are in `seed_<seed>/`.", "",
               "| Method | sAMOTA | per seed | paper |", "| --- | ---: | ---: | ---: |"]
     for t in trackers:
         paper = PAPER_TABLE2.get(t, (None,))[0]

@@ -4,12 +4,12 @@ The detector's own output (train.postprocess: score >= 0.1, NMS at BEV IoU 0.2) 
 rewards every candidate; a tracker fed all of them latches onto the false ones, many 0.3-1 m from
 a player. The paper filters its tracklets by score before associating them, and OpenPCDet's
 PointPillars suppresses at BEV IoU 0.01. Here the filter is a score threshold and greedy NMS on the
-boxes at t, by BEV IoU or by BEV centre distance, the same for every tracker.
+boxes at t, by BEV IoU or by BEV centre distance, chosen for each tracker.
 
-Rule (``choose_filter``): every filter of GRID (score thresholds x NMS settings) is applied to the
-tracklets of the *train* clips and tracked by one reference tracker (the plain 3D DIoU tracker in
-the study); the filter with the highest sAMOTA (3D IoU >= 0.25) is kept, ties to the earlier one
-in GRID. The val clips are never looked at.
+Rule (``choose_filters``): every filter of GRID (score thresholds x NMS settings) is applied to the
+tracklets of the *train* clips and each tracker tracks them; each tracker keeps the filter under
+which it reaches its highest sAMOTA (3D IoU >= 0.25), ties to the earlier one in GRID. A tracker is
+thus compared at its own best input, not at another tracker's. The val clips are never looked at.
 """
 
 from __future__ import annotations
@@ -69,23 +69,27 @@ def apply_filter(frames: Sequence[Tracklets], rule: TrackletFilter) -> list[Trac
 @dataclass(frozen=True)
 class FilterScore:
     rule: TrackletFilter
-    samota: float  # of the reference tracker on the train clips, IoU 0.25
+    samota: float  # of one tracker on the train clips, IoU 0.25
     tracklets_per_frame: float
 
 
-def choose_filter(
+def choose_filters(
     clips: Sequence[Sequence[Tracklets]],
     truth: Sequence[Sequence[GroundTruthFrame]],
-    reference: TrackerConfig,
+    trackers: Sequence[TrackerConfig],
     grid: Sequence[TrackletFilter] = GRID,
     progress: bool = False,
-) -> tuple[TrackletFilter, list[FilterScore]]:
-    """The filter of `grid` under which `reference` tracks `clips` best (sAMOTA), and every filter's score."""
-    scores = []
-    for rule in tqdm(grid, desc="choose tracklet filter", unit="filter", disable=not progress, dynamic_ncols=True):
+) -> dict[str, tuple[TrackletFilter, list[FilterScore]]]:
+    """Tracker name -> the filter of `grid` under which it tracks `clips` best (sAMOTA), and every filter's score."""
+    scores: dict[str, list[FilterScore]] = {t.name: [] for t in trackers}
+    for rule in tqdm(grid, desc="choose tracklet filters", unit="filter", disable=not progress, dynamic_ncols=True):
         kept = [apply_filter(c, rule) for c in clips]
-        tracks = [track_clip(make_tracker(reference), c) for c in kept]
         count = sum(len(f.scores) for c in kept for f in c) / max(1, sum(len(c) for c in kept))
-        scores.append(FilterScore(rule, evaluate_tracking(truth, tracks).samota, count))
-    best = max(range(len(scores)), key=lambda i: (scores[i].samota, -i))
-    return grid[best], scores
+        for tracker in trackers:
+            tracks = [track_clip(make_tracker(tracker), c) for c in kept]
+            scores[tracker.name].append(FilterScore(rule, evaluate_tracking(truth, tracks).samota, count))
+    chosen = {}
+    for name, by_rule in scores.items():
+        best = max(range(len(by_rule)), key=lambda i: (by_rule[i].samota, -i))
+        chosen[name] = (grid[best], by_rule)
+    return chosen
