@@ -17,13 +17,11 @@ from pathlib import Path
 
 import numpy as np
 import open3d as o3d
+from open3d_frame import frozen_frame
 from table import machine, markdown_table, write_results
 
-from simgen.body.mesh import body_meshes
 from simgen.motion.engine import capture_motion
-from simgen.motion.interpolate import interpolate_clip
 from simgen.pipeline.clip import frame_count, render_clip
-from simgen.scan.sensor_rig import frame_rays
 from simgen.scenario import load_scenario, parse_scenario
 from simgen.scene.static import build_static_scene
 
@@ -46,21 +44,9 @@ def _ours(scenario, clip, clip_index: int = 0) -> tuple[float, int]:
 def _bare(scenario, clip, frames: int) -> tuple[float, int]:
     """Seconds and rays for Open3D to cast the same rays against the frozen scene."""
     static = build_static_scene(scenario.scene.goals, scenario.scene.surroundings, scenario.scene.net_transmission)
-    ground_v = np.array([[-200, -200, 0], [200, -200, 0], [200, 200, 0], [-200, 200, 0]], np.float32)
-    ground_f = np.array([[0, 1, 2], [0, 2, 3]], np.uint32)
-    rate = scenario.scan.frame_rate_hz
     seconds, rays_total = 0.0, 0
     for index in range(frames):
-        start = float(clip.time_s[0]) + index / rate
-        keypoints, _ = interpolate_clip(clip, np.array([start + 0.5 / rate]))
-        bodies = body_meshes(keypoints[0], clip.team)
-        scene = o3d.t.geometry.RaycastingScene(nthreads=1)
-        scene.add_triangles(o3d.core.Tensor(ground_v), o3d.core.Tensor(ground_f))
-        scene.add_triangles(o3d.core.Tensor(static.vertices), o3d.core.Tensor(static.faces.astype(np.uint32)))
-        for vertices in bodies.vertices_m:
-            scene.add_triangles(o3d.core.Tensor(vertices), o3d.core.Tensor(bodies.faces.astype(np.uint32)))
-        rays = frame_rays(scenario, scenario.sensor_specs(), index, float(clip.time_s[0]))
-        tensor = o3d.core.Tensor(np.concatenate([rays.origin_m, rays.direction], axis=1).astype(np.float32))
+        scene, rays, tensor = frozen_frame(scenario, static, clip, index)
         scene.cast_rays(tensor, nthreads=1)  # builds the BVH: not timed
         started = time.perf_counter()
         scene.cast_rays(tensor, nthreads=1)
