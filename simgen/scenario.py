@@ -18,6 +18,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationIn
 
 import scan_patterns
 from scan_patterns.replay import OFFICIAL_FILES
+from simgen.datasets.formats import FORMATS, dataset_format, formats_where
 from simgen.validation import one_line, read_yaml, validate
 
 #: Colon-separated folders besides the scenario's own that a replay head's `file` may come from.
@@ -28,7 +29,6 @@ MAX_SHOTS_PER_S = 20_000_000
 MAX_FRAME_BYTES = 2 << 30
 BYTES_PER_SHOT = 64  # the shot's ray: origin, direction, time, sensor, head
 BYTES_PER_RAY = 256  # each cast ray's hit record, candidates and temporaries, rounded up
-MAX_KITTI_FRAMES = 10_000  # simgen.datasets.samples.MAX_FRAMES_PER_CLIP: sample numbers per clip
 
 
 class _Strict(BaseModel):
@@ -114,7 +114,7 @@ class DatasetConfig(_Strict):
     """What `simgen generate` writes."""
 
     clips: int = Field(1, ge=1, le=100_000, description="Clips: motion sequences of one seed each.")
-    format: Literal["parquet", "kitti", "kitti_tracking", "openpcdet", "mcap"] = Field("parquet", description="Dataset layout.")
+    format: Literal[FORMATS] = Field(FORMATS[0], description="Dataset layout.")
     kitti_images: bool = Field(
         False, description="kitti: also write placeholder training/image_2 PNGs (the virtual camera's size, blank), "
         "which OpenPCDet's KITTI info generation opens."
@@ -122,8 +122,9 @@ class DatasetConfig(_Strict):
 
     @model_validator(mode="after")
     def _images_for_kitti(self) -> "DatasetConfig":
-        if self.kitti_images and self.format != "kitti":
-            raise ValueError(f"dataset.kitti_images: placeholder images are for format kitti, not {self.format}")
+        if self.kitti_images and not dataset_format(self.format).placeholder_images:
+            takers = " or ".join(formats_where(lambda f: f.placeholder_images))
+            raise ValueError(f"dataset.kitti_images: placeholder images are for format {takers}, not {self.format}")
         return self
 
 
@@ -331,10 +332,11 @@ class Scenario(_Strict):
                 f"no frames: motion.frames {self.motion.frames} at {self.motion.capture_hz} Hz give {motion_s:.2f} s of motion, "
                 f"less than one frame at scan.frame_rate_hz {self.scan.frame_rate_hz:g} (raise motion.frames or the frame rate)"
             )
-        if self.dataset.format != "parquet" and self.frames_per_clip() > MAX_KITTI_FRAMES:
+        most = dataset_format(self.dataset.format).max_frames_per_clip
+        if most is not None and self.frames_per_clip() > most:
             raise ValueError(
                 f"scan.frames: {self.frames_per_clip()} frames per clip; the {self.dataset.format} format numbers at most "
-                f"{MAX_KITTI_FRAMES} (lower scan.frames or motion.frames, or use more clips)"
+                f"{most} (lower scan.frames or motion.frames, or use more clips)"
             )
         return self
 

@@ -123,3 +123,15 @@ def test_split_is_by_clip(datasets):
     val = (root / "val.txt").read_text().split()
     assert val == ["020000", "020001"]
     assert len((root / "train.txt").read_text().split()) == 8
+
+
+@pytest.mark.parametrize("format", FORMATS)
+def test_a_format_reads_back_what_it_says_it_carries(datasets, format):
+    """`Carries` is what `simgen verify`, `qa` and `export` go by: it must match the frames the reader gives."""
+    data = datasets[format]
+    carries = data.plugin.carries
+    for frame in data:
+        assert (frame.track_id is not None, frame.discontinuity is not None) == (carries.track_ids, carries.track_ids)
+        per_point = (frame.sensor, frame.time_offset_s, frame.line, frame.instance_id)
+        assert [field is not None for field in per_point] == [carries.point_fields] * 4
+        assert (frame.num_points is not None) == carries.point_counts

@@ -9,7 +9,6 @@ from simgen.errors import UserError
 
 EXPORT_FORMATS = ("mcap",)
 ROS2_LAYOUTS = ("simgen", "livox")
-PER_POINT_FORMATS = ("parquet", "mcap")  # formats that keep each point's sensor, head, time and instance
 
 
 def register(subparsers) -> None:
@@ -42,6 +41,7 @@ def run(args) -> int:
     from tqdm import tqdm
 
     from simgen.datasets import open_dataset
+    from simgen.datasets.formats import formats_where
     from simgen.datasets.ros2_bag import ALL_POINTS_TOPIC, LAYOUTS, XYZI_LAYOUT, write_bag
 
     if args.output.is_dir():
@@ -50,12 +50,13 @@ def run(args) -> int:
     clip = args.clip if args.clip is not None else dataset.clips[0]
     frames = frame_range(args.frames, dataset.num_frames(clip))
     layout = LAYOUTS[args.ros2_layout]
-    if dataset.format not in PER_POINT_FORMATS:
+    if not dataset.plugin.carries.point_fields:
         if args.ros2_layout == "livox":
+            per_point = formats_where(lambda f: f.carries.point_fields)
             raise UserError(f"--ros2-layout livox: a {dataset.format} dataset keeps no sensor, head or time per point "
-                            f"(export a {' or '.join(PER_POINT_FORMATS)} dataset)")
+                            f"(export a {' or '.join(per_point)} dataset)")
         layout = XYZI_LAYOUT
-        ids = "" if dataset.format == "kitti_tracking" else "; no track ids: marker ids number each frame's boxes"
+        ids = "" if dataset.plugin.carries.track_ids else "; no track ids: marker ids number each frame's boxes"
         print(f"{args.output}: {dataset.format} keeps no sensor, head, time or instance per point: x, y, z, intensity "
               f"on one topic, {ALL_POINTS_TOPIC}{ids}")
     progress = tqdm(frames, unit="frame", desc=f"{clip} -> {args.output.name}", dynamic_ncols=True)

@@ -7,9 +7,8 @@ import os
 from tqdm import tqdm
 
 from simgen.commands.arguments import add_command, add_scenario_arguments
+from simgen.datasets.formats import FORMATS
 from simgen.errors import UserError
-
-FORMAT_CHOICES = ("parquet", "kitti", "kitti_tracking", "openpcdet", "mcap")
 
 
 def register(subparsers) -> None:
@@ -25,7 +24,7 @@ def register(subparsers) -> None:
         "whatever the executor, workers or shards. An interrupted run is finished with --resume.",
     )
     add_scenario_arguments(parser, "dataset directory to create, e.g. datasets/NAME", "frames per clip (default: the scenario's scan.frames)")
-    parser.add_argument("--format", choices=FORMAT_CHOICES, help="dataset layout (default: the scenario's, else parquet)")
+    parser.add_argument("--format", choices=FORMATS, help="dataset layout (default: the scenario's, else parquet)")
     parser.add_argument("--kitti-images", action="store_true",
                         help="kitti: also write blank placeholder training/image_2 PNGs, as OpenPCDet's KITTI info generation needs")
     parser.add_argument("--density", type=float, help="shots per second as a multiple of the real sensor's (x1, x2, ...)")
@@ -104,6 +103,7 @@ class _Bars:
 
 
 def run(args) -> int:
+    from simgen.datasets.formats import dataset_format
     from simgen.pipeline.dataset_run import ARROW_ENVIRONMENT, generate
 
     for name, value in ARROW_ENVIRONMENT.items():  # before Arrow's first allocation; workers inherit it
@@ -137,7 +137,6 @@ def run(args) -> int:
         f"time      {totals['seconds']:.1f} s ({rate:.1f} frames/s)",
         f"read it   python -c \"import simgen.datasets as d; print(d.open('{args.output}'))\"",
     ]
-    if fmt == "parquet":
-        lines.append(f"          duckdb -c \"select count(*) from '{args.output}/points/**/*.parquet'\"")
+    lines += dataset_format(fmt).summary_lines(str(args.output))
     print("\n".join(lines))
     return 0

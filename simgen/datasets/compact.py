@@ -23,6 +23,7 @@ import pyarrow.parquet as pq
 from tqdm import tqdm
 
 from simgen.atomic import atomic_path
+from simgen.datasets.formats import dataset_format
 from simgen.datasets.manifest import MANIFEST_NAME, Manifest, manifest_bytes, read_manifest
 from simgen.datasets.parquet import table_writer
 from simgen.datasets.schema import TABLES
@@ -37,7 +38,7 @@ PACKED_NAME = "packed.json"  # a packed copy's manifest (the original's); `open_
 def pack(dataset: Path, out: Path, progress: bool = False) -> Manifest:
     """Copy the Parquet dataset `dataset` into `out` (created) with its points in whole millimetres."""
     manifest = read_manifest(dataset)
-    if manifest.format != "parquet":
+    if not dataset_format(manifest.format).packable:
         raise UserError(f"{dataset}: pack reads Parquet datasets, this one is {manifest.format}")
     with _staging(out) as staging:
         for record in tqdm(manifest.files, desc=f"pack {out.name}", unit="file", disable=not progress):

@@ -19,13 +19,13 @@ from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from simgen.datasets.formats import FORMATS
 from simgen.datasets.records import FileRecord
 from simgen.datasets.schema import BOX_CONVENTION, PITCH_FRAME, SCHEMA_VERSION
 from simgen.errors import UserError
 from simgen.validation import one_line, read_limited
 
 MANIFEST_NAME = "manifest.json"
-FORMATS = ("parquet", "kitti", "kitti_tracking", "openpcdet", "mcap")
 #: Packages whose versions shape the data (the engine, ray casting, meshes, arrays, files).
 DATA_DEPENDENCIES = ("gfootball", "numpy", "open3d-cpu", "pyarrow", "pydantic", "scipy", "trimesh")
 MAX_MANIFEST_BYTES = 1 << 30  # a million files at ~200 bytes each fit ~5 times over

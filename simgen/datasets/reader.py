@@ -10,56 +10,28 @@ import dataclasses
 from collections.abc import Iterator
 from pathlib import Path
 
-from simgen.datasets import kitti, openpcdet, ros2_bag
+from simgen.datasets.formats import dataset_format
 from simgen.datasets.frame import Frame, frame_times
-from simgen.datasets.kitti import KittiReader
 from simgen.datasets.manifest import MANIFEST_NAME, ClipEntry, Manifest, read_manifest
-from simgen.datasets.openpcdet import OpenPCDetReader
-from simgen.datasets.parquet import SENSORS_PATH, UNITS_PATH, ParquetReader, table_path
-from simgen.datasets.ros2_bag import BagReader
-from simgen.datasets.schema import CLIP_TABLES
 from simgen.datasets.verify import DatasetFiles
 from simgen.errors import UserError
 
-IMAGE_SETS = ("ImageSets/train.txt", "ImageSets/val.txt", "ImageSets/trainval.txt")
-
-
-def clip_files(format: str, entry: ClipEntry) -> set[str]:
-    """Relative paths of every file a clip's frames are read from."""
-    if format == "parquet":
-        return {table_path(name, entry.clip) for name in CLIP_TABLES}
-    if format == "mcap":
-        return {ros2_bag.bag_path(entry.clip)}
-    frames = range(entry.frames)
-    if format == "openpcdet":
-        return {f(entry.clip_index, i) for i in frames for f in (openpcdet.points_path, openpcdet.labels_path)}
-    tracking = format == "kitti_tracking"
-    paths = (kitti.velodyne_path, kitti.label_path, kitti.calib_path)
-    placements = {kitti.placements_path(entry.clip_index)} if tracking else set()
-    return {f(tracking, entry.clip_index, i) for i in frames for f in paths} | placements
-
 
 def check_files_match_clips(root: Path, manifest: Manifest) -> None:
-    """The files listed are exactly those of the clips' frames (and the ImageSets), and a Parquet clip's
-    `frames` table has as many rows as the clip has frames: a lowered frame count cannot hide frames."""
+    """The files listed are exactly those of the clips' frames and the format's dataset files, and the
+    rows listed for a clip's files fit its frames: a lowered frame count cannot hide frames."""
+    plugin = dataset_format(manifest.format)
     listed = {f.path: f for f in manifest.files}
-    expected = set(IMAGE_SETS) if manifest.format in ("kitti", "openpcdet") else set()
-    if manifest.format == "parquet":
-        expected |= {SENSORS_PATH, UNITS_PATH}
-    if manifest.format == "kitti" and manifest.scenario.get("dataset", {}).get("kitti_images"):
-        expected |= {kitti.image_path(c.clip_index, i) for c in manifest.clips for i in range(c.frames)}
+    expected = plugin.dataset_files(manifest)
     where = root / MANIFEST_NAME
     for entry in manifest.clips:
-        files = clip_files(manifest.format, entry)
+        files = plugin.clip_files(entry)
         missing = sorted(files - set(listed))
         if missing:
             raise UserError(f"{where}: clip {entry.clip} has {entry.frames} frames, but {missing[0]} is not listed")
-        if manifest.format == "parquet" and listed[table_path("frames", entry.clip)].rows != entry.frames:
-            rows = listed[table_path("frames", entry.clip)].rows
-            raise UserError(f"{where}: clip {entry.clip} lists {entry.frames} frames, its frames table {rows}")
-        if manifest.format == "mcap" and listed[ros2_bag.bag_path(entry.clip)].rows != ros2_bag.bag_messages(entry.frames, len(manifest.sensors)):
-            rows = listed[ros2_bag.bag_path(entry.clip)].rows
-            raise UserError(f"{where}: clip {entry.clip} lists {entry.frames} frames, its bag {rows} messages")
+        problem = plugin.listed_rows_problem(entry, listed, len(manifest.sensors))
+        if problem:
+            raise UserError(f"{where}: {problem}")
         expected |= files
     missing = sorted(expected - set(listed))
     if missing:
@@ -76,18 +48,11 @@ class Dataset:
         self.root = root
         self.manifest = manifest
         self.format = manifest.format
+        self.plugin = dataset_format(manifest.format)  # what the format writes, reads and carries
         check_files_match_clips(root, manifest)
         self.files = DatasetFiles(root, list(manifest.files), verify)
         self._clips = {c.clip: c for c in manifest.clips}
-        indices = {c.clip: c.clip_index for c in manifest.clips}
-        if self.format == "parquet":
-            self._reader = ParquetReader(self.files)
-        elif self.format == "openpcdet":
-            self._reader = OpenPCDetReader(self.files, indices)
-        elif self.format == "mcap":
-            self._reader = BagReader(self.files, manifest.sensors)
-        else:
-            self._reader = KittiReader(self.files, indices, tracking=self.format == "kitti_tracking")
+        self._reader = self.plugin.reader(self.files, manifest)
 
     def __repr__(self) -> str:
         frames = sum(c.frames for c in self.manifest.clips)

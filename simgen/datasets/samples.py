@@ -9,15 +9,22 @@ at least 6 digits (`000000`, ..., `010003` is frame 3 of clip index 1).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
+from simgen.datasets.records import FileRecord, write_text
 from simgen.errors import UserError
+
+if TYPE_CHECKING:
+    from simgen.datasets.records import ClipRecord
 
 MAX_FRAMES_PER_CLIP = 10_000
 INTENSITY_SCALE = 255.0  # stored intensity = reflectivity / 255, in [0, 1] as KITTI's
 VAL_FRACTION = 0.2  # of the clips (the last ones), when there are two or more
+IMAGE_SETS = ("ImageSets/train.txt", "ImageSets/val.txt", "ImageSets/trainval.txt")
 
 
 def sample_number(clip_index: int, index: int) -> int:
@@ -58,3 +65,14 @@ def val_clips(clip_indices: Sequence[int]) -> set[int]:
     if len(ordered) < 2:
         return set()
     return set(ordered[-max(1, round(VAL_FRACTION * len(ordered))) :])
+
+
+def write_image_sets(root: Path, clips: Sequence[ClipRecord]) -> list[FileRecord]:
+    """IMAGE_SETS, train.txt, val.txt and trainval.txt: sample names, split by clip."""
+    val = val_clips([c.clip_index for c in clips])
+    names = {
+        split: [sample_name(c.clip_index, i) for c in clips if (c.clip_index in val) == (split == "val") for i in range(c.frames)]
+        for split in ("train", "val")
+    }
+    names["trainval"] = sorted(names["train"] + names["val"])
+    return [write_text(root, f"ImageSets/{split}.txt", lines) for split, lines in names.items()]

@@ -1,12 +1,13 @@
 """The reader's only way to a file: named in the manifest, and its sha256 checked on first use.
 
 A flipped byte anywhere in a shard, a .bin or a label file is a one-line `UserError` naming the
-file before any of it is read as data.
+file before any of it is read as data. A `Problem` is what `simgen verify` reports: a file, a row, what is wrong.
 """
 
 from __future__ import annotations
 
 import hashlib
+from dataclasses import dataclass
 from pathlib import Path
 
 from simgen.datasets.records import FileRecord, sha256_file
@@ -65,3 +66,16 @@ class DatasetFiles:
         for relative in sorted(self.records):
             path = self.root / self._record(relative).path
             self._check(relative, path.stat().st_size, sha256_file(path))
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Something wrong in a dataset, at a file and, for labels, a row."""
+
+    file: str  # the file's path
+    row: int | None  # line number (1-based) in a text file, row index (0-based) in a Parquet table
+    message: str
+
+    def __str__(self) -> str:
+        where = self.file if self.row is None else f"{self.file}:{self.row}"
+        return f"{where}: {self.message}"

@@ -1,9 +1,11 @@
 """Writing a dataset: `write_clip` (or a streaming `ClipWriter`) once per clip, in any process and
 order, then `finish_dataset` once. Frames go to disk as they come: memory does not grow with a clip.
 
-Clips never share a file (Parquet partitions by clip id, the KITTI-style formats number samples
-by clip index), so clips can be written in parallel; `finish_dataset` then writes what needs them
-all: the train/val ImageSets, the dataset card README.md and, last, manifest.json.
+Each format is a plug-in (`simgen.datasets.formats`): its stream writes a clip, its `finish` what
+needs every clip. Clips never share a file (Parquet partitions by clip id, the KITTI-style formats
+number samples by clip index), so clips can be written in parallel; `finish_dataset` then writes
+the format's dataset files (ImageSets, Parquet's sensors and units tables), the dataset card
+README.md and, last, manifest.json.
 """
 
 from __future__ import annotations
@@ -17,13 +19,10 @@ from typing import TYPE_CHECKING
 
 from simgen import __version__
 from simgen.datasets.card import dataset_card
-from simgen.datasets.kitti import KittiClipStream, write_placeholder_images
-from simgen.datasets.manifest import FORMATS, MANIFEST_NAME, ClipEntry, Manifest, dependency_versions, manifest_bytes
-from simgen.datasets.openpcdet import OpenPCDetClipStream
-from simgen.datasets.parquet import ParquetClipStream, write_parquet_sensors, write_parquet_units
-from simgen.datasets.records import ClipRecord, FileRecord, write_bytes, write_text
-from simgen.datasets.ros2_bag import McapClipStream
-from simgen.datasets.samples import sample_name, val_clips
+from simgen.datasets.formats import dataset_format
+from simgen.datasets.manifest import MANIFEST_NAME, ClipEntry, Manifest, dependency_versions, manifest_bytes
+from simgen.datasets.records import ClipRecord, write_bytes
+from simgen.datasets.samples import val_clips
 from simgen.datasets.schema import SCHEMA_VERSION
 from simgen.errors import UserError
 from simgen.labels.statistics import LabelStatistics
@@ -36,7 +35,6 @@ if TYPE_CHECKING:
 #: Clip ids become directory and file names: a leading letter, no '=' (not read as a hive partition).
 CLIP_ID = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
 CARD_NAME = "README.md"
-IMAGE_SET_FORMATS = ("kitti", "openpcdet")
 
 
 def check_frame(clip: str, expected_index: int, frame: LabelledFrame) -> None:
@@ -59,8 +57,7 @@ class ClipWriter:
     Frames must come in order from `first_frame`."""
 
     def __init__(self, root: Path, format: str, clip: str, clip_index: int, sensors: Sequence[SensorInfo], first_frame: int = 0):
-        if format not in FORMATS:
-            raise UserError(f"unknown dataset format {format!r} (choose from {', '.join(FORMATS)})")
+        plugin = dataset_format(format)
         if not CLIP_ID.match(clip):
             raise UserError(f"clip id {clip!r}: use a letter, then letters, digits, '_', '.' or '-'")
         if clip_index < 0:
@@ -69,15 +66,7 @@ class ClipWriter:
         self.next_index, self.frames, self.points, self.boxes = first_frame, 0, 0, 0
         self.start_s = 0.0  # the first frame's time_s, once it comes
         self.labels = LabelStatistics.empty()
-        root = Path(root)
-        if format == "parquet":
-            self._stream = ParquetClipStream(root, clip)
-        elif format == "mcap":
-            self._stream = McapClipStream(root, clip, sensors)
-        elif format == "openpcdet":
-            self._stream = OpenPCDetClipStream(root, clip_index)
-        else:
-            self._stream = KittiClipStream(root, clip_index, tracking=format == "kitti_tracking")
+        self._stream = plugin.stream(Path(root), clip, clip_index, sensors)
 
     def add(self, frame: LabelledFrame) -> None:
         check_frame(self.clip, self.next_index, frame)
@@ -123,8 +112,7 @@ def write_clip(
     frames = iter(frames)
     first = next(frames, None)
     if first is None:
-        if format not in FORMATS:
-            raise UserError(f"unknown dataset format {format!r} (choose from {', '.join(FORMATS)})")
+        dataset_format(format)  # an unknown format is said first
         raise UserError(f"clip index {clip_index}: no frames to write")
     check_frame(first.clip, 0, first)
     with ClipWriter(root, format, first.clip, clip_index, sensors) as writer:
@@ -133,26 +121,14 @@ def write_clip(
         return writer.close()
 
 
-def _image_sets(root: Path, clips: Sequence[ClipRecord]) -> list[FileRecord]:
-    """ImageSets/{train,val,trainval}.txt: sample names, split by clip."""
-    val = val_clips([c.clip_index for c in clips])
-    names = {
-        split: [sample_name(c.clip_index, i) for c in clips if (c.clip_index in val) == (split == "val") for i in range(c.frames)]
-        for split in ("train", "val")
-    }
-    names["trainval"] = sorted(names["train"] + names["val"])
-    return [write_text(root, f"ImageSets/{split}.txt", lines) for split, lines in names.items()]
-
-
 def finish_dataset(
     root: Path, format: str, clips: Sequence[ClipRecord], sensors: Sequence[SensorInfo], scenario: Mapping, seed: int
 ) -> Manifest:
-    """Write the ImageSets (KITTI, OpenPCDet) or the sensors and units tables (Parquet), README.md and,
-    last, manifest.json.
-
-    KITTI with `scenario["dataset"]["kitti_images"]` also gets placeholder training/image_2 PNGs.
-    """
+    """Write the format's dataset files (its `finish`: the ImageSets of KITTI and OpenPCDet, KITTI's
+    placeholder images if `scenario["dataset"]["kitti_images"]`, Parquet's sensors and units tables),
+    README.md and, last, manifest.json."""
     root = Path(root)
+    plugin = dataset_format(format)
     clips = sorted(clips, key=lambda c: c.clip_index)
     if not clips:
         raise UserError(f"{root}: no clips written, nothing to finish")
@@ -160,15 +136,10 @@ def finish_dataset(
         values = [getattr(c, key) for c in clips]
         if len(set(values)) != len(values):
             raise UserError(f"{root}: two clips have the same {kind}")
-    if any(c.format != format for c in clips):
-        raise UserError(f"{root}: clips written as {sorted({c.format for c in clips})}, finishing as {format}")
-    files = [f for c in clips for f in c.files]
-    if format in IMAGE_SET_FORMATS:
-        files += _image_sets(root, clips)
-    if format == "parquet":
-        files += [write_parquet_sensors(root, sensors), write_parquet_units(root)]
-    if format == "kitti" and scenario.get("dataset", {}).get("kitti_images"):
-        files += write_placeholder_images(root, [(c.clip_index, c.frames) for c in clips])
+    written_as = {c.format for c in clips}
+    if written_as != {plugin.name}:
+        raise UserError(f"{root}: clips written as {sorted(written_as)}, finishing as {format}")
+    files = [f for c in clips for f in c.files] + plugin.finish(root, clips, sensors, scenario)
     val = val_clips([c.clip_index for c in clips])
     statistics = LabelStatistics.empty()
     for clip in clips:

@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Callable
 
 from simgen.atomic import atomic_path, check_output_allowed
+from simgen.datasets.formats import dataset_format  # names only: imports no writer
 from simgen.errors import UserError
 from simgen.scenario import Scenario
 
@@ -112,7 +113,7 @@ def shard_ranges(frames: int, shard_frames: int, min_shards: int) -> list[tuple[
 
 def writes_in_place(format: str, shards: int) -> bool:
     """Whether a clip's shards write their frames' final files themselves (else partial Parquet clips)."""
-    return shards == 1 or format in ("kitti", "openpcdet")
+    return shards == 1 or dataset_format(format).frame_files
 
 
 def run_capture(job: Job, progress: Progress) -> dict:

@@ -154,7 +154,7 @@ def dataset_report(dataset: Dataset, tol: Tolerances, out_dir: Path, max_frames:
     checks.append(Check("dataset", "integrity (simgen verify)", f"{problems} problems", "0 problems", problems == 0))
     plots.humanoid_points(qa, out_dir / PLOTS / "humanoids.png")
     plots.frame_statistics(qa, out_dir / PLOTS / "frames.png")
-    counted = ("points counted by their track id, per sensor" if dataset.format == "parquet" else
+    counted = ("points counted by their track id, per sensor" if dataset.plugin.carries.point_fields else
                f"points counted inside the box grown by {tol.labels.box_margin_m:g} m, credited to the nearest sensor")
     sensors = "; ".join(f"{s.name} ({s.preset}) at ({s.origin_m[0]:g}, {s.origin_m[1]:g}, {s.origin_m[2]:g}) m" for s in qa.sensors)
     sections += [

@@ -34,16 +34,3 @@ def summary(checks: list[Check]) -> str:
     counts = {verdict: sum(c.verdict == verdict for c in checks) for verdict in ("pass", "FAIL", "n/a")}
     overall = "FAIL" if counts["FAIL"] else "PASS"
     return f"{overall}: {counts['pass']} passed, {counts['FAIL']} failed, {counts['n/a']} not applicable"
-
-
-@dataclass(frozen=True)
-class Problem:
-    """Something wrong in a dataset, at a file and, for labels, a row."""
-
-    file: str  # the file's path
-    row: int | None  # line number (1-based) in a text file, row index (0-based) in a Parquet table
-    message: str
-
-    def __str__(self) -> str:
-        where = self.file if self.row is None else f"{self.file}:{self.row}"
-        return f"{where}: {self.message}"

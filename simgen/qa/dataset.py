@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from simgen.datasets.parquet import open_table, table_path
 from simgen.datasets.reader import Dataset
 from simgen.qa.checks import Check
 from simgen.qa.label_checks import in_box
@@ -65,11 +64,10 @@ def frame_sample(dataset: Dataset, max_frames: int) -> list[tuple[str, int]]:
 
 
 def frame_counts(dataset: Dataset, sampled_points: list[int]) -> FrameCounts:
-    """Counts of every frame from the Parquet frames tables; other formats: the sampled frames' points."""
-    if dataset.format != "parquet":
+    """Counts of every frame where the format keeps them (Parquet's frames tables); else the sampled frames' points."""
+    column = dataset.plugin.frame_counts(dataset.files, dataset.clips)
+    if column is None:
         return FrameCounts(np.array(sampled_points, np.int64), None, None, None)
-    tables = [open_table(dataset.files.path(table_path("frames", clip)), "frames").read() for clip in dataset.clips]
-    column = {name: np.concatenate([t[name].to_numpy() for t in tables]).astype(np.int64) for name in ("num_points", "shots", "dropped", "missed")}
     return FrameCounts(column["num_points"], column["shots"], column["dropped"], column["missed"])
 
 

@@ -14,17 +14,18 @@ without the flag is still a problem.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
+from simgen.datasets.formats.base import Locate
 from simgen.datasets.frame import Frame
-from simgen.qa.checks import Problem, plural
+from simgen.datasets.verify import Problem
+from simgen.qa.checks import plural
 from simgen.qa.tolerances import LabelTolerances
 from simgen.scene.pitch import HALF_LENGTH_M, HALF_WIDTH_M
 
-Locate = Callable[[int, int], tuple[str, int]]
 GROUND_SLACK_M = 0.01  # a box bottom may sit this far below z = 0 (float32 text round trips)
 SIZE_NAMES = ("length", "width", "height")
 
