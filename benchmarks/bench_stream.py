@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simgen.pipeline.dataset_run import AUTO_SHARD_MAX_FRAMES
+from simgen.pipeline.jobs import AUTO_SHARD_MAX_FRAMES
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "full_match.yaml"

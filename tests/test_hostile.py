@@ -643,7 +643,8 @@ def test_resume_completes_a_run_killed_after_its_manifest(tmp_path):
     """Killed after manifest.json: --resume writes the missing card and removes the run state, no clip redone."""
     from simgen.datasets.card import dataset_card
     from simgen.datasets.manifest import read_manifest
-    from simgen.pipeline.dataset_run import WORK_DIR, generate
+    from simgen.pipeline.dataset_run import generate
+    from simgen.pipeline.run_state import WORK_DIR
     from simgen.scenario import load_scenario
 
     root = tmp_path / "d"

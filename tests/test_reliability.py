@@ -271,7 +271,7 @@ def test_ray_worker_killed_mid_task_is_retried(reference, tmp_path):
         killed = None
         deadline = time.time() + 180
         while killed is None and time.time() < deadline and driver.poll() is None:
-            tasks = subprocess.run(["pgrep", "-f", "ray::_run_job_on_ray"], capture_output=True, text=True).stdout.split()
+            tasks = subprocess.run(["pgrep", "-f", "ray::run_job_reporting"], capture_output=True, text=True).stdout.split()
             if tasks:
                 time.sleep(0.5)
                 os.kill(int(tasks[0]), signal.SIGKILL)

@@ -104,7 +104,8 @@ class _Bars:
 
 def run(args) -> int:
     from simgen.datasets.formats import dataset_format
-    from simgen.pipeline.dataset_run import ARROW_ENVIRONMENT, generate
+    from simgen.pipeline.dataset_run import generate
+    from simgen.pipeline.memory import ARROW_ENVIRONMENT
 
     for name, value in ARROW_ENVIRONMENT.items():  # before Arrow's first allocation; workers inherit it
         os.environ.setdefault(name, value)
