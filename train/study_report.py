@@ -8,7 +8,7 @@ from pathlib import Path
 
 from simgen.atomic import atomic_path
 from train.evaluate import CENTRE_THRESHOLDS_M, IOU_THRESHOLD, mean_ap
-from train.study import StudyResult, TrackerResult
+from train.study import StudyDataset, StudyResult, TrackerResult
 
 LABELS = {"single": "Single Frame", "early": "Early Fusion", "late": "Late Fusion"}
 # Table 1 of the paper: (method, density) -> AP of the boxes at t, BEV and 3D, IoU 0.5.
@@ -41,12 +41,18 @@ def header(result: StudyResult, command: str) -> list[str]:
         f"Command: `{command}`",
         "",
         f"- Dataset: `{d.path}`, scenario `{scenario.name}` (seed {scenario.seed}, density x{scenario.scan.density:g}), {made}; "
-        f"val clips {', '.join(d.val_clips)}: {d.val_frames} frames, scored from each clip's third frame on.",
+        f"{_val_text(d, first.data.split)}, scored from each clip's third frame on.",
         f"- Budget: {budget}; loader processes: {first.train.workers}; device {result.device}.",
         f"- Seed: {first.seed} (training draws and augmentation). Split: {_split_text(first.data.split)}.",
         f"- Timing: {timing}; tracking and its metrics {result.tracking_s:.0f} s; whole study {result.seconds:.0f} s.",
         "",
     ]
+
+
+def _val_text(d: StudyDataset, split: str) -> str:
+    if split == "clip":
+        return f"val clips {', '.join(d.val_clips)}: {d.val_frames} frames"
+    return f"val windows drawn from all {d.scenario.dataset.clips} clips (see Split)"
 
 
 def _split_text(split: str) -> str:
