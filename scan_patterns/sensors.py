@@ -20,7 +20,7 @@ import numpy as np
 from scan_patterns.livox_tables import TABLES
 from scan_patterns.metrics import FieldOfView
 from scan_patterns.replay import OFFICIAL_FILES
-from scan_patterns.risley import MID40, RisleyParams
+from scan_patterns.risley import FITTED, RisleyParams
 from scan_patterns.rose import RoseParams
 
 PATTERNS = ("risley", "rose", "replay")
@@ -92,18 +92,28 @@ class HeadSpec:
 
     @property
     def model(self) -> RisleyParams | RoseParams | str:
-        """The pattern's parameters: RisleyParams (MID40 with overrides), RoseParams, or the replay file."""
+        """The pattern's parameters: RisleyParams (`risley.FITTED[optics]`, default the Mid-40's, with
+        overrides), RoseParams, or the replay file."""
         params = {k: tuple(v) if isinstance(v, list) else v for k, v in self.params.items()}
         if self.pattern == "replay":
             if set(params) != {"file"}:
                 raise ValueError(f"replay takes one parameter, 'file' (an official name: {', '.join(OFFICIAL_FILES)}; or a path); got {sorted(params)}")
             return str(params["file"])
-        base = MID40 if self.pattern == "risley" else RoseParams()
-        names = {f.name for f in dataclasses.fields(base)}
+        if self.pattern == "risley":
+            optics = params.pop("optics", "mid40")
+            if optics not in FITTED:
+                raise ValueError(f"risley: unknown optics {optics!r}; known: {', '.join(FITTED)}")
+            base, names = FITTED[optics], {"optics"}
+        else:
+            base, names = RoseParams(), set()
+        names |= {f.name for f in dataclasses.fields(base)}
         unknown = sorted(set(params) - names)
         if unknown:
             raise ValueError(f"{self.pattern}: unknown parameter {unknown[0]!r}; known: {', '.join(sorted(names))}")
-        return dataclasses.replace(base, **params)
+        model = dataclasses.replace(base, **params)
+        if self.pattern == "risley" and model.lasers != self.lasers:
+            raise ValueError(f"risley: the optics have {model.lasers} lasers, the head {self.lasers}")
+        return model
 
 
 @dataclass(frozen=True)
