@@ -69,7 +69,9 @@ class _Layout:
 
 
 def _residuals(p: NDArray, layout: _Layout, t_s: NDArray, line: NDArray, dirs: NDArray) -> NDArray:
-    return (directions_exact(layout.params(p), t_s, line) - dirs).ravel()
+    """Model minus table, per component; a beam the prisms reflect back (no exit) counts 1 per component."""
+    with np.errstate(invalid="ignore"):
+        return np.nan_to_num(directions_exact(layout.params(p), t_s, line) - dirs, nan=1.0).ravel()
 
 
 def spectral_lines(t_s: NDArray, dirs: NDArray, count: int = 2) -> list[tuple[float, float, float]]:
@@ -88,6 +90,12 @@ def spectral_lines(t_s: NDArray, dirs: NDArray, count: int = 2) -> list[tuple[fl
         lines.append((hz, float(np.abs(line)), float(np.angle(line))))
         spectrum[max(0, k - 4) : k + 5] = 0.0
     return lines
+
+
+def _wedge_deg(amplitude: float) -> float:
+    """Wedge angle of a prism of index INDEX0 that deviates a beam (normal on its flat face) by asin(amplitude)."""
+    deviation = np.arcsin(min(amplitude, 0.9))
+    return float(np.degrees(np.arctan(np.sin(deviation) / (INDEX0 - np.cos(deviation)))))
 
 
 def _least_squares(p0: NDArray, layout: _Layout, t_s: NDArray, line: NDArray, dirs: NDArray, **kw) -> NDArray:
@@ -109,7 +117,7 @@ def fit(t_s: NDArray, dirs: NDArray, template: RisleyParams = FITTED["mid40"], l
     lasers = np.zeros(2 * template.lasers)
     best, best_cost = None, np.inf
     for order, flips in itertools.product(itertools.permutations(lines), itertools.product((0, 180), repeat=layout.prisms)):
-        wedges = [min(40.0, np.degrees(np.arcsin(min(amp, 0.9))) / (INDEX0 - 1.0)) for _, amp, _ in order]
+        wedges = [_wedge_deg(amp) for _, amp, _ in order]
         rpms = [60.0 * hz for hz, _, _ in order]
         phases = [np.degrees(ph) + flip for (_, _, ph), flip in zip(order, flips)]
         p = np.array([*wedges, *[INDEX0] * layout.glasses, *rpms, *phases, *lasers])

@@ -76,7 +76,12 @@ class RisleyParams:
 # Fitted by `python -m scan_patterns.fit_risley --optics NAME` to Livox's tables, which it returns to
 # within 1e-6 deg (wedges, phases, lasers), 1e-7 (index) and 1e-7 rpm of these round values.
 MID40 = RisleyParams(wedge_deg=(18.0, 18.0), index=1.5089, rpm=(-7294.0, 4664.0), phase_deg=(180.0, 0.0))
-FITTED = {"mid40": MID40}
+# Avia: six lasers in a vertical row (tangents 0.4488 deg x 1, 3, 5 either side of the boresight), the
+# wedged faces outwards in a glass of index 1.8144; the prisms stand at 180 and 0 deg at the first shot.
+AVIA = RisleyParams(wedge_deg=(18.0, 18.0), index=1.8144, rpm=(-7893.0, 2448.0), phase_deg=(180.197325, -0.0612),
+                    wedged_first=(True, False),
+                    lasers_deg=((0.0, -2.242938), (0.0, -1.346203), (0.0, -0.448808), (0.0, 0.448808), (0.0, 1.346203), (0.0, 2.242938)))
+FITTED = {"mid40": MID40, "avia": AVIA}
 
 
 def _refract(s, normal, eta):

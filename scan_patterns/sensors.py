@@ -229,6 +229,11 @@ OFFICIAL_HEADS = {
 }
 
 
+def _fitted_head(name: str) -> HeadSpec:
+    """The head of official table `name` drawn by the Risley optics fitted to it (`risley.FITTED`)."""
+    return dataclasses.replace(OFFICIAL_HEADS[name], pattern="risley", params={"optics": name})
+
+
 def official_table(head: HeadSpec) -> str | None:
     """The official table of a head's kind: the one it replays, else the one whose head has its field
     of view and lasers (a fitted model, the rose); None if Livox ships none."""
@@ -245,6 +250,7 @@ for _spec in (
     SensorSpec("mid40-rose", (HeadSpec("rose"),), "Mid-40 field of view, the paper's polar rose"),
     SensorSpec("mid40-replay", (OFFICIAL_HEADS["mid40"],), "Livox's Mid-40 file, looped every 4 s"),
     SensorSpec("mid70-replay", (OFFICIAL_HEADS["mid70"],), "Livox's Mid-70 file (70.4 deg), looped every 4 s"),
+    SensorSpec("avia-risley", (_fitted_head("avia"),), "Avia: 6 lasers through Risley prisms fitted to Livox's table, never loops"),
     SensorSpec("avia-replay", (OFFICIAL_HEADS["avia"],), "Livox's Avia table: 6 lasers, 240,000 shots/s, 70.4 x 77.2 deg"),
     SensorSpec("horizon-replay", (OFFICIAL_HEADS["horizon"],), "Livox's Horizon table: 6 lasers, 240,000 shots/s, 81.7 x 25.1 deg"),
     SensorSpec("tele15-replay", (OFFICIAL_HEADS["tele"],), "Livox's Tele-15 table: 6 lasers, 240,000 shots/s, 14.5 x 16.1 deg"),
