@@ -81,7 +81,12 @@ MID40 = RisleyParams(wedge_deg=(18.0, 18.0), index=1.5089, rpm=(-7294.0, 4664.0)
 AVIA = RisleyParams(wedge_deg=(18.0, 18.0), index=1.8144, rpm=(-7893.0, 2448.0), phase_deg=(180.197325, -0.0612),
                     wedged_first=(True, False),
                     lasers_deg=((0.0, -2.242938), (0.0, -1.346203), (0.0, -0.448808), (0.0, 0.448808), (0.0, 1.346203), (0.0, 2.242938)))
-FITTED = {"mid40": MID40, "avia": AVIA}
+# Tele-15: the Avia's layout with thin wedges of the Mid-40's glass and a narrower row of lasers
+# (tangents 0.1584 deg x 1, 3, 5); the prisms stand at 180 and 0 deg at the fifth shot.
+TELE15 = RisleyParams(wedge_deg=(7.1, 7.1), index=1.5089, rpm=(-9837.0, 3087.0), phase_deg=(178.770375, 0.385875),
+                      wedged_first=(True, False),
+                      lasers_deg=((0.0, -0.791979), (0.0, -0.475207), (0.0, -0.158406), (0.0, 0.158406), (0.0, 0.475207), (0.0, 0.791979)))
+FITTED = {"mid40": MID40, "avia": AVIA, "tele": TELE15}
 
 
 def _refract(s, normal, eta):

@@ -253,6 +253,7 @@ for _spec in (
     SensorSpec("avia-risley", (_fitted_head("avia"),), "Avia: 6 lasers through Risley prisms fitted to Livox's table, never loops"),
     SensorSpec("avia-replay", (OFFICIAL_HEADS["avia"],), "Livox's Avia table: 6 lasers, 240,000 shots/s, 70.4 x 77.2 deg"),
     SensorSpec("horizon-replay", (OFFICIAL_HEADS["horizon"],), "Livox's Horizon table: 6 lasers, 240,000 shots/s, 81.7 x 25.1 deg"),
+    SensorSpec("tele15-risley", (_fitted_head("tele"),), "Tele-15: 6 lasers through Risley prisms fitted to Livox's table, never loops"),
     SensorSpec("tele15-replay", (OFFICIAL_HEADS["tele"],), "Livox's Tele-15 table: 6 lasers, 240,000 shots/s, 14.5 x 16.1 deg"),
     SensorSpec("hap-replay", (OFFICIAL_HEADS["hap"],), "Livox's HAP table: 6 lasers, 452,000 shots/s, 120 x 25 deg, 2.32 s"),
     SensorSpec("mid360-replay", (OFFICIAL_HEADS["mid360"],), "Livox's Mid-360 table: 4 lasers, 200,000 shots/s, 360 x 59 deg"),
