@@ -86,7 +86,12 @@ AVIA = RisleyParams(wedge_deg=(18.0, 18.0), index=1.8144, rpm=(-7893.0, 2448.0),
 TELE15 = RisleyParams(wedge_deg=(7.1, 7.1), index=1.5089, rpm=(-9837.0, 3087.0), phase_deg=(178.770375, 0.385875),
                       wedged_first=(True, False),
                       lasers_deg=((0.0, -0.791979), (0.0, -0.475207), (0.0, -0.158406), (0.0, 0.158406), (0.0, 0.475207), (0.0, 0.791979)))
-FITTED = {"mid40": MID40, "avia": AVIA, "tele": TELE15}
+# Horizon: two prisms of one glass turning at +-7352 rpm draw a horizontal line, a third of another
+# glass at 619 rpm moves it about; the Avia's six lasers; every prism at its 180 or 0 deg at the fifth shot.
+HORIZON = RisleyParams(wedge_deg=(20.0, 20.0, 17.5), index=(1.6106, 1.6106, 1.5799), rpm=(7352.0, -7352.0, 619.0),
+                       phase_deg=(180.919, -0.919, 180.077375), wedged_first=(True, False, True),
+                       lasers_deg=AVIA.lasers_deg)
+FITTED = {"mid40": MID40, "avia": AVIA, "tele": TELE15, "horizon": HORIZON}
 
 
 def _refract(s, normal, eta):

@@ -252,6 +252,7 @@ for _spec in (
     SensorSpec("mid70-replay", (OFFICIAL_HEADS["mid70"],), "Livox's Mid-70 file (70.4 deg), looped every 4 s"),
     SensorSpec("avia-risley", (_fitted_head("avia"),), "Avia: 6 lasers through Risley prisms fitted to Livox's table, never loops"),
     SensorSpec("avia-replay", (OFFICIAL_HEADS["avia"],), "Livox's Avia table: 6 lasers, 240,000 shots/s, 70.4 x 77.2 deg"),
+    SensorSpec("horizon-risley", (_fitted_head("horizon"),), "Horizon: 6 lasers through three Risley prisms fitted to Livox's table, never loops"),
     SensorSpec("horizon-replay", (OFFICIAL_HEADS["horizon"],), "Livox's Horizon table: 6 lasers, 240,000 shots/s, 81.7 x 25.1 deg"),
     SensorSpec("tele15-risley", (_fitted_head("tele"),), "Tele-15: 6 lasers through Risley prisms fitted to Livox's table, never loops"),
     SensorSpec("tele15-replay", (OFFICIAL_HEADS["tele"],), "Livox's Tele-15 table: 6 lasers, 240,000 shots/s, 14.5 x 16.1 deg"),

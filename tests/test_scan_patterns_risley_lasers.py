@@ -10,7 +10,7 @@ import scan_patterns as sp
 from scan_patterns import fit_risley, risley
 from scan_patterns.shots import angle_between_deg
 
-PRESETS = {"avia": "avia-risley", "tele": "tele15-risley"}
+PRESETS = {"avia": "avia-risley", "tele": "tele15-risley", "horizon": "horizon-risley"}
 COVERAGE_TIMES_S = (0.1, 0.25, 0.5)  # the excerpts hold 0.5 s
 
 
