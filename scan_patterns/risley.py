@@ -91,7 +91,11 @@ TELE15 = RisleyParams(wedge_deg=(7.1, 7.1), index=1.5089, rpm=(-9837.0, 3087.0),
 HORIZON = RisleyParams(wedge_deg=(20.0, 20.0, 17.5), index=(1.6106, 1.6106, 1.5799), rpm=(7352.0, -7352.0, 619.0),
                        phase_deg=(180.919, -0.919, 180.077375), wedged_first=(True, False, True),
                        lasers_deg=AVIA.lasers_deg)
-FITTED = {"mid40": MID40, "avia": AVIA, "tele": TELE15, "horizon": HORIZON}
+# Mid-70: the Mid-40's wedges, rates and phases in a glass of index 1.8144 (the Avia's), with the
+# Avia's face order (wedged faces outwards).
+MID70 = RisleyParams(wedge_deg=(18.0, 18.0), index=1.8144, rpm=(-7294.0, 4664.0), phase_deg=(180.0, 0.0),
+                     wedged_first=(True, False))
+FITTED = {"mid40": MID40, "mid70": MID70, "avia": AVIA, "tele": TELE15, "horizon": HORIZON}
 
 
 def _refract(s, normal, eta):

@@ -249,6 +249,7 @@ for _spec in (
     SensorSpec("mid40-risley", (HeadSpec("risley"),), "Mid-40, Risley prisms fitted to Livox's file, never loops"),
     SensorSpec("mid40-rose", (HeadSpec("rose"),), "Mid-40 field of view, the paper's polar rose"),
     SensorSpec("mid40-replay", (OFFICIAL_HEADS["mid40"],), "Livox's Mid-40 file, looped every 4 s"),
+    SensorSpec("mid70-risley", (_fitted_head("mid70"),), "Mid-70, Risley prisms fitted to Livox's file (70.4 deg), never loops"),
     SensorSpec("mid70-replay", (OFFICIAL_HEADS["mid70"],), "Livox's Mid-70 file (70.4 deg), looped every 4 s"),
     SensorSpec("avia-risley", (_fitted_head("avia"),), "Avia: 6 lasers through Risley prisms fitted to Livox's table, never loops"),
     SensorSpec("avia-replay", (OFFICIAL_HEADS["avia"],), "Livox's Avia table: 6 lasers, 240,000 shots/s, 70.4 x 77.2 deg"),

@@ -1,4 +1,5 @@
-"""The multi-laser Risley presets against the shipped excerpts of Livox's tables: shot for shot,
+"""The Risley presets fitted to Livox's tables (the Mid-40's: test_scan_patterns_risley.py) against the
+shipped files: shot for shot,
 coverage, laser numbering, and the fit that found their parameters."""
 
 from __future__ import annotations
@@ -10,8 +11,8 @@ import scan_patterns as sp
 from scan_patterns import fit_risley, risley
 from scan_patterns.shots import angle_between_deg
 
-PRESETS = {"avia": "avia-risley", "tele": "tele15-risley", "horizon": "horizon-risley"}
-COVERAGE_TIMES_S = (0.1, 0.25, 0.5)  # the excerpts hold 0.5 s
+PRESETS = {"avia": "avia-risley", "tele": "tele15-risley", "horizon": "horizon-risley", "mid70": "mid70-risley"}
+COVERAGE_TIMES_S = (0.1, 0.25, 0.5)  # the excerpts hold 0.5 s (Mid-70: 4 s)
 
 
 @pytest.fixture(scope="module", params=PRESETS)
@@ -29,7 +30,7 @@ def test_every_shot_within_3e_5_degrees_of_the_table_with_its_laser(pair):
     np.testing.assert_allclose(model.t_s, reference.t_s, rtol=0, atol=1e-9)
     np.testing.assert_array_equal(model.line, reference.line)
     error_deg = angle_between_deg(model.dirs, reference.dirs)
-    print(f"{PRESETS[name]} vs the {name} excerpt, {len(model):,} shots: max {error_deg.max():.2e} deg, rms {np.sqrt(np.mean(error_deg**2)):.2e} deg")
+    print(f"{PRESETS[name]} vs the shipped {name} table, {len(model):,} shots: max {error_deg.max():.2e} deg, rms {np.sqrt(np.mean(error_deg**2)):.2e} deg")
     assert error_deg.max() < 3e-5  # the float32 copy's precision, about 1e-5 deg
 
 
@@ -51,12 +52,11 @@ def test_fast_generator_agrees_with_the_float64_reference_far_from_t0(pair):
     assert angle_between_deg(shots.dirs, exact).max() < 1e-5
 
 
-def test_fit_recovers_avias_parameters_from_the_excerpt_alone():
-    """From the spectrum of laser 0 and all lasers on the boresight (about 30 CPU seconds)."""
-    name, head = "avia", sp.get_sensor("avia-risley").heads[0]
+def _fit_returns_the_stored_optics(name: str, stride: int, rate_hz: float) -> None:
+    """fit_risley on every `stride`-th shot of the shipped table `name`, from its spectrum alone."""
     reference, stored = sp.file_shots(name), risley.FITTED[name]
-    take = slice(None, None, 97)  # a prime stride: every laser, 1,237 shots of 0.5 s
-    result = fit_risley.fit(reference.t_s[take], reference.dirs[take], stored, reference.line[take], head.shots_per_s)
+    take = slice(None, None, stride)
+    result = fit_risley.fit(reference.t_s[take], reference.dirs[take], stored, reference.line[take], rate_hz)
     p = result.params
     print(f"{name}: fit on {len(reference.t_s[take])} shots, max {result.max_error_deg:.2e} deg, rms {result.rms_error_deg:.2e} deg")
     assert result.max_error_deg < 3e-5
@@ -64,3 +64,15 @@ def test_fit_recovers_avias_parameters_from_the_excerpt_alone():
     np.testing.assert_allclose(p.indices, stored.indices, atol=1e-4)
     np.testing.assert_allclose(p.rpm, stored.rpm, atol=1e-2)
     np.testing.assert_allclose(p.lasers_deg, stored.lasers_deg, atol=1e-3)
+
+
+def test_fit_recovers_avias_parameters_from_the_excerpt_alone():
+    """Six lasers, all started on the boresight; a prime stride takes every laser (1,238 shots of
+    0.5 s, about 30 CPU seconds)."""
+    _fit_returns_the_stored_optics("avia", 97, 240_000.0)
+
+
+def test_fit_finds_the_mid70s_face_order_and_glass_from_its_file():
+    """The Mid-70's prisms meet the beam wedged face first, then flat face first (the Avia's order):
+    the fit returns the stored optics (2,011 shots, about 5 CPU seconds)."""
+    _fit_returns_the_stored_optics("mid70", 199, 100_000.0)
