@@ -22,8 +22,9 @@ from scan_patterns.metrics import FieldOfView
 from scan_patterns.replay import OFFICIAL_FILES
 from scan_patterns.risley import FITTED, RisleyParams
 from scan_patterns.rose import RoseParams
+from scan_patterns.rotors import RotorParams
 
-PATTERNS = ("risley", "rose", "replay")
+PATTERNS = ("risley", "rose", "replay", "rotors")
 MID40_FOV_DEG = 38.4
 MID70_FOV_DEG = 70.4
 MID40_SHOTS_PER_S = 100_000.0
@@ -93,7 +94,7 @@ class HeadSpec:
     @property
     def model(self) -> RisleyParams | RoseParams | str:
         """The pattern's parameters: RisleyParams (`risley.FITTED[optics]`, default the Mid-40's, with
-        overrides), RoseParams, or the replay file."""
+        overrides), RoseParams, RotorParams, or the replay file."""
         params = {k: tuple(v) if isinstance(v, list) else v for k, v in self.params.items()}
         if self.pattern == "replay":
             if set(params) != {"file"}:
@@ -105,14 +106,14 @@ class HeadSpec:
                 raise ValueError(f"risley: unknown optics {optics!r}; known: {', '.join(FITTED)}")
             base, names = FITTED[optics], {"optics"}
         else:
-            base, names = RoseParams(), set()
+            base, names = (RoseParams() if self.pattern == "rose" else RotorParams()), set()
         names |= {f.name for f in dataclasses.fields(base)}
         unknown = sorted(set(params) - names)
         if unknown:
             raise ValueError(f"{self.pattern}: unknown parameter {unknown[0]!r}; known: {', '.join(sorted(names))}")
         model = dataclasses.replace(base, **params)
-        if self.pattern == "risley" and model.lasers != self.lasers:
-            raise ValueError(f"risley: the optics have {model.lasers} lasers, the head {self.lasers}")
+        if self.pattern != "rose" and model.lasers != self.lasers:
+            raise ValueError(f"{self.pattern}: the optics have {model.lasers} lasers, the head {self.lasers}")
         return model
 
 
@@ -229,9 +230,10 @@ OFFICIAL_HEADS = {
 }
 
 
-def _fitted_head(name: str) -> HeadSpec:
-    """The head of official table `name` drawn by the Risley optics fitted to it (`risley.FITTED`)."""
-    return dataclasses.replace(OFFICIAL_HEADS[name], pattern="risley", params={"optics": name})
+def _fitted_head(name: str, pattern: str = "risley") -> HeadSpec:
+    """The head of official table `name` drawn by the model fitted to it: `risley.FITTED[name]`, or
+    the `rotors` fit of the table."""
+    return dataclasses.replace(OFFICIAL_HEADS[name], pattern=pattern, params={"optics" if pattern == "risley" else "fit": name})
 
 
 def official_table(head: HeadSpec) -> str | None:
@@ -258,6 +260,7 @@ for _spec in (
     SensorSpec("tele15-risley", (_fitted_head("tele"),), "Tele-15: 6 lasers through Risley prisms fitted to Livox's table, never loops"),
     SensorSpec("tele15-replay", (OFFICIAL_HEADS["tele"],), "Livox's Tele-15 table: 6 lasers, 240,000 shots/s, 14.5 x 16.1 deg"),
     SensorSpec("hap-replay", (OFFICIAL_HEADS["hap"],), "Livox's HAP table: 6 lasers, 452,000 shots/s, 120 x 25 deg, 2.32 s"),
+    SensorSpec("mid360-rotors", (_fitted_head("mid360", "rotors"),), "Mid-360: 4 lasers, two rotors and a map fitted to Livox's table, never loops"),
     SensorSpec("mid360-replay", (OFFICIAL_HEADS["mid360"],), "Livox's Mid-360 table: 4 lasers, 200,000 shots/s, 360 x 59 deg"),
     SensorSpec("mid100-risley", _mid100("risley"), "Mid-100: three Risley Mid-40 heads yawed -30, 0, +30 deg"),
     SensorSpec("mid100-rose", _mid100("rose"), "Mid-100 layout with the paper's rose in each head"),
