@@ -74,7 +74,9 @@ class RisleyParams:
 
 
 # Fitted by `python -m scan_patterns.fit_risley --optics NAME` to Livox's tables, which it returns to
-# within 1e-6 deg (wedges, phases, lasers), 1e-7 (index) and 1e-7 rpm of these round values.
+# within 1e-5 deg (wedges, phases, lasers), 1e-6 (index) and 1e-6 rpm of these round values from a
+# strided subset (Mid-40, Mid-70, Avia, Tele-15; docs/scan_patterns.md); every set leaves under 2e-5
+# deg over its whole table.
 MID40 = RisleyParams(wedge_deg=(18.0, 18.0), index=1.5089, rpm=(-7294.0, 4664.0), phase_deg=(180.0, 0.0))
 # Avia: six lasers in a vertical row (tangents 0.4488 deg x 1, 3, 5 either side of the boresight), the
 # wedged faces outwards in a glass of index 1.8144; the prisms stand at 180 and 0 deg at the first shot.
@@ -82,12 +84,12 @@ AVIA = RisleyParams(wedge_deg=(18.0, 18.0), index=1.8144, rpm=(-7893.0, 2448.0),
                     wedged_first=(True, False),
                     lasers_deg=((0.0, -2.242938), (0.0, -1.346203), (0.0, -0.448808), (0.0, 0.448808), (0.0, 1.346203), (0.0, 2.242938)))
 # Tele-15: the Avia's layout with thin wedges of the Mid-40's glass and a narrower row of lasers
-# (tangents 0.1584 deg x 1, 3, 5); the prisms stand at 180 and 0 deg at the fifth shot.
+# (tangents 0.1584 deg x 1, 3, 5); the prisms stand at 180 and 0 deg five shots before t = 0.
 TELE15 = RisleyParams(wedge_deg=(7.1, 7.1), index=1.5089, rpm=(-9837.0, 3087.0), phase_deg=(178.770375, 0.385875),
                       wedged_first=(True, False),
                       lasers_deg=((0.0, -0.791979), (0.0, -0.475207), (0.0, -0.158406), (0.0, 0.158406), (0.0, 0.475207), (0.0, 0.791979)))
 # Horizon: two prisms of one glass turning at +-7352 rpm draw a horizontal line, a third of another
-# glass at 619 rpm moves it about; the Avia's six lasers; every prism at its 180 or 0 deg at the fifth shot.
+# glass at 619 rpm moves it about; the Avia's six lasers; every prism at 180 or 0 deg five shots before t = 0.
 HORIZON = RisleyParams(wedge_deg=(20.0, 20.0, 17.5), index=(1.6106, 1.6106, 1.5799), rpm=(7352.0, -7352.0, 619.0),
                        phase_deg=(180.919, -0.919, 180.077375), wedged_first=(True, False, True),
                        lasers_deg=AVIA.lasers_deg)
