@@ -20,10 +20,11 @@ import numpy as np
 from scan_patterns.livox_tables import TABLES
 from scan_patterns.metrics import FieldOfView
 from scan_patterns.replay import OFFICIAL_FILES
-from scan_patterns.risley import MID40, RisleyParams
+from scan_patterns.risley import FITTED, RisleyParams
 from scan_patterns.rose import RoseParams
+from scan_patterns.rotors import RotorParams
 
-PATTERNS = ("risley", "rose", "replay")
+PATTERNS = ("risley", "rose", "replay", "rotors")
 MID40_FOV_DEG = 38.4
 MID70_FOV_DEG = 70.4
 MID40_SHOTS_PER_S = 100_000.0
@@ -92,18 +93,28 @@ class HeadSpec:
 
     @property
     def model(self) -> RisleyParams | RoseParams | str:
-        """The pattern's parameters: RisleyParams (MID40 with overrides), RoseParams, or the replay file."""
+        """The pattern's parameters: RisleyParams (`risley.FITTED[optics]`, default the Mid-40's, with
+        overrides), RoseParams, RotorParams, or the replay file."""
         params = {k: tuple(v) if isinstance(v, list) else v for k, v in self.params.items()}
         if self.pattern == "replay":
             if set(params) != {"file"}:
                 raise ValueError(f"replay takes one parameter, 'file' (an official name: {', '.join(OFFICIAL_FILES)}; or a path); got {sorted(params)}")
             return str(params["file"])
-        base = MID40 if self.pattern == "risley" else RoseParams()
-        names = {f.name for f in dataclasses.fields(base)}
+        if self.pattern == "risley":
+            optics = params.pop("optics", "mid40")
+            if optics not in FITTED:
+                raise ValueError(f"risley: unknown optics {optics!r}; known: {', '.join(FITTED)}")
+            base, names = FITTED[optics], {"optics"}
+        else:
+            base, names = (RoseParams() if self.pattern == "rose" else RotorParams()), set()
+        names |= {f.name for f in dataclasses.fields(base)}
         unknown = sorted(set(params) - names)
         if unknown:
             raise ValueError(f"{self.pattern}: unknown parameter {unknown[0]!r}; known: {', '.join(sorted(names))}")
-        return dataclasses.replace(base, **params)
+        model = dataclasses.replace(base, **params)
+        if self.pattern != "rose" and model.lasers != self.lasers:
+            raise ValueError(f"{self.pattern}: the optics have {model.lasers} lasers, the head {self.lasers}")
+        return model
 
 
 @dataclass(frozen=True)
@@ -219,6 +230,12 @@ OFFICIAL_HEADS = {
 }
 
 
+def _fitted_head(name: str, pattern: str = "risley") -> HeadSpec:
+    """The head of official table `name` drawn by the model fitted to it: `risley.FITTED[name]`, or
+    the `rotors` fit of the table."""
+    return dataclasses.replace(OFFICIAL_HEADS[name], pattern=pattern, params={"optics" if pattern == "risley" else "fit": name})
+
+
 def official_table(head: HeadSpec) -> str | None:
     """The official table of a head's kind: the one it replays, else the one whose head has its field
     of view and lasers (a fitted model, the rose); None if Livox ships none."""
@@ -234,11 +251,16 @@ for _spec in (
     SensorSpec("mid40-risley", (HeadSpec("risley"),), "Mid-40, Risley prisms fitted to Livox's file, never loops"),
     SensorSpec("mid40-rose", (HeadSpec("rose"),), "Mid-40 field of view, the paper's polar rose"),
     SensorSpec("mid40-replay", (OFFICIAL_HEADS["mid40"],), "Livox's Mid-40 file, looped every 4 s"),
+    SensorSpec("mid70-risley", (_fitted_head("mid70"),), "Mid-70, Risley prisms fitted to Livox's file (70.4 deg), never loops"),
     SensorSpec("mid70-replay", (OFFICIAL_HEADS["mid70"],), "Livox's Mid-70 file (70.4 deg), looped every 4 s"),
+    SensorSpec("avia-risley", (_fitted_head("avia"),), "Avia: 6 lasers through Risley prisms fitted to Livox's table, never loops"),
     SensorSpec("avia-replay", (OFFICIAL_HEADS["avia"],), "Livox's Avia table: 6 lasers, 240,000 shots/s, 70.4 x 77.2 deg"),
+    SensorSpec("horizon-risley", (_fitted_head("horizon"),), "Horizon: 6 lasers through three Risley prisms fitted to Livox's table, never loops"),
     SensorSpec("horizon-replay", (OFFICIAL_HEADS["horizon"],), "Livox's Horizon table: 6 lasers, 240,000 shots/s, 81.7 x 25.1 deg"),
+    SensorSpec("tele15-risley", (_fitted_head("tele"),), "Tele-15: 6 lasers through Risley prisms fitted to Livox's table, never loops"),
     SensorSpec("tele15-replay", (OFFICIAL_HEADS["tele"],), "Livox's Tele-15 table: 6 lasers, 240,000 shots/s, 14.5 x 16.1 deg"),
     SensorSpec("hap-replay", (OFFICIAL_HEADS["hap"],), "Livox's HAP table: 6 lasers, 452,000 shots/s, 120 x 25 deg, 2.32 s"),
+    SensorSpec("mid360-rotors", (_fitted_head("mid360", "rotors"),), "Mid-360: 4 lasers, two rotors and a map fitted to Livox's table, never loops"),
     SensorSpec("mid360-replay", (OFFICIAL_HEADS["mid360"],), "Livox's Mid-360 table: 4 lasers, 200,000 shots/s, 360 x 59 deg"),
     SensorSpec("mid100-risley", _mid100("risley"), "Mid-100: three Risley Mid-40 heads yawed -30, 0, +30 deg"),
     SensorSpec("mid100-rose", _mid100("rose"), "Mid-100 layout with the paper's rose in each head"),

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from scan_patterns import replay, risley, rose
+from scan_patterns import replay, risley, rose, rotors
 from scan_patterns.sensors import HeadSpec, SensorSpec
 from scan_patterns.shots import Shots, concatenate, head_rotation, make_shots, rotate
 from scan_patterns.timebase import first_shot, shot_times
@@ -33,6 +33,8 @@ def pattern_directions(
         return risley.directions(model, t_local_s, clock)
     if head.pattern == "rose":
         return rose.directions(model, head.fov_deg, t_local_s)
+    if head.pattern == "rotors":
+        return rotors.directions(model, t_local_s, line)
     return replay.directions(model, t_local_s, line, head.lasers)
 
 

@@ -18,6 +18,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationIn
 
 import scan_patterns
 from scan_patterns.replay import OFFICIAL_FILES
+from scan_patterns.risley import FITTED
+from scan_patterns.rotors import FITS
 from simgen.datasets.formats import FORMATS, dataset_format, formats_where
 from simgen.validation import one_line, read_yaml, validate
 
@@ -156,8 +158,10 @@ class NoiseConfig(_Strict):
 
 
 class RisleyParamsConfig(_Strict):
-    """`params` of a `risley` head: overrides of the Mid-40's fitted prisms (scan_patterns.RisleyParams)."""
+    """`params` of a `risley` head: a fitted set of optics (`optics`, default the Mid-40's) and
+    overrides of its two prisms (scan_patterns.RisleyParams)."""
 
+    optics: Literal[tuple(FITTED)] | None = Field(None, description="Livox table whose fitted optics to start from.")
     wedge_deg: tuple[Annotated[float, Field(gt=0, lt=45)], Annotated[float, Field(gt=0, lt=45)]] | None = None
     index: float | None = Field(None, gt=1.0, le=4.0, description="Refractive index of both prisms.")
     rpm: tuple[Annotated[float, Field(ge=-100_000, le=100_000)], Annotated[float, Field(ge=-100_000, le=100_000)]] | None = None
@@ -171,6 +175,12 @@ class RoseParamsConfig(_Strict):
     petals_per_frame: float | None = Field(None, gt=0, le=10_000)
     frame_rate_hz: float | None = Field(None, gt=0, le=1000)
     theta0_hz: float | None = Field(None, ge=-1e6, le=1e6)
+
+
+class RotorsParamsConfig(_Strict):
+    """`params` of a `rotors` head (scan_patterns.RotorParams)."""
+
+    fit: Literal[tuple(FITS)] | None = Field(None, description="Livox table whose stored rotors fit to use.")
 
 
 class ReplayParamsConfig(_Strict):
@@ -200,15 +210,15 @@ class ReplayParamsConfig(_Strict):
         return str(resolved)
 
 
-_PARAMS = {"risley": RisleyParamsConfig, "rose": RoseParamsConfig, "replay": ReplayParamsConfig}
+_PARAMS = {"risley": RisleyParamsConfig, "rose": RoseParamsConfig, "replay": ReplayParamsConfig, "rotors": RotorsParamsConfig}
 
 
 class HeadConfig(_Strict):
     """One head of a custom sensor: a pattern (or `like`: a preset whose first head it starts from) and overrides."""
 
     like: str | None = Field(None, max_length=64, description="Sensor preset whose first head this one starts from.")
-    pattern: Literal["risley", "rose", "replay"] | None = None
-    params: dict[str, object] | None = Field(None, description="The pattern's parameters (Risley, rose or replay).")
+    pattern: Literal["risley", "rose", "replay", "rotors"] | None = None
+    params: dict[str, object] | None = Field(None, description="The pattern's parameters (Risley, rose, replay or rotors).")
     shots_per_s: float | None = Field(None, gt=0, le=MAX_SHOTS_PER_S, description="Shots per second at density x1.")
     fov_deg: float | None = Field(None, gt=0, lt=180, description="Full cone angle of the circular field of view.")
     yaw_deg: float | None = Field(None, ge=-360, le=360)
@@ -233,7 +243,7 @@ class HeadConfig(_Strict):
     @model_validator(mode="after")
     def _pattern_params(self, info: ValidationInfo) -> "HeadConfig":
         if self.like is None and self.pattern is None:
-            raise ValueError("a head needs 'pattern' (risley, rose or replay) or 'like' (a sensor preset)")
+            raise ValueError("a head needs 'pattern' (risley, rose, replay or rotors) or 'like' (a sensor preset)")
         pattern = self.pattern or scan_patterns.get_sensor(self.like).heads[0].pattern
         if self.params is not None:
             try:

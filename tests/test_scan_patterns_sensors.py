@@ -9,7 +9,7 @@ import scan_patterns as sp
 from scan_patterns.shots import dirs_from_livox, head_rotation, livox_angles
 
 PRESETS = ["mid40-risley", "mid40-rose", "mid40-replay", "mid70-replay", "mid100-risley", "mid100-rose",
-           "avia-replay", "horizon-replay", "tele15-replay", "hap-replay", "mid360-replay"]
+           "avia-replay", "horizon-replay", "tele15-replay", "hap-replay", "mid360-replay", "avia-risley", "tele15-risley", "horizon-risley", "mid70-risley", "mid360-rotors"]
 
 
 def test_the_issue_presets_are_registered():
@@ -81,6 +81,12 @@ def test_risley_parameters_override_the_fitted_ones():
         ({"pattern": "rose", "fov_deg": 200}, r"fov_deg must be in \(0, 180\)"),
         ({"pattern": "replay", "params": {}}, "replay takes one parameter, 'file'"),
         ({"pattern": "risley", "params": {"index": 0.9}}, "refractive index must exceed 1"),
+        ({"pattern": "risley", "params": {"optics": "mid41"}}, "risley: unknown optics 'mid41'; known: mid40"),
+        ({"pattern": "risley", "lasers": 6}, "risley: the optics have 1 lasers, the head 6"),
+        ({"pattern": "risley", "params": {"lasers_deg": [[0, 40]]}}, "lasers_deg holds 1 to 255"),
+        ({"pattern": "risley", "params": {"rpm": [1000]}}, "risley: rpm has 1 values for 2 prisms"),
+        ({"like": "mid360-rotors", "params": {"fit": "hap"}}, "rotors: no fit of table 'hap'; fitted: mid360"),
+        ({"like": "mid360-rotors", "lasers": 6}, "rotors: the optics have 4 lasers, the head 6"),
         ({"yaw_deg": 3}, "needs 'pattern'"),
         ({"like": "mid40-rose", "colour": "red"}, "unknown key 'colour'"),
         ({"pattern": "rose", "lasers": 0}, "lasers must be a whole number in 1..255"),

@@ -7,6 +7,7 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import scan_patterns as sp
 from simgen.errors import UserError
 from simgen.scenario import Scenario, load_scenario, parse_scenario
 from tests.support import ROOT
@@ -83,6 +84,27 @@ def test_custom_sensor_from_the_scenario():
     wide, mid40 = scenario.sensor_specs()
     assert wide.heads[0].fov_deg == 90 and wide.heads[0].shots_per_s == 50000
     assert mid40.name == "mid40-risley"
+
+
+def test_custom_heads_from_the_fitted_models():
+    """The Tele-15's replay head drawn by its fitted optics, an Avia turned 30 deg, a Mid-360 pitched up."""
+    scenario = parse_scenario(
+        {
+            "name": "x",
+            "custom_sensors": [{"name": "mix", "heads": [
+                {"like": "tele15-replay", "pattern": "risley", "params": {"optics": "tele"}},
+                {"like": "avia-risley", "yaw_deg": 30},
+                {"like": "mid360-rotors", "pitch_deg": 10, "params": {"fit": "mid360"}},
+            ]}],
+            "sensors": [{"preset": "mix"}],
+        }
+    )
+    (mix,) = scenario.sensor_specs()
+    tele, avia, mid360 = mix.heads
+    assert tele.model == sp.get_sensor("tele15-risley").heads[0].model and sp.official_table(tele) == "tele"
+    assert avia.yaw_deg == 30 and avia.model.lasers == 6 and mid360.pattern == "rotors"
+    with pytest.raises(UserError, match="params of a risley head: 'optics': Input should be 'mid40'"):
+        parse_scenario({"name": "x", "custom_sensors": [{"name": "m", "heads": [{"pattern": "risley", "params": {"optics": "hap"}}]}]})
 
 
 def test_malformed_yaml_is_one_line(tmp_path):

@@ -1,0 +1,86 @@
+"""`rotors`: a scanner of two elements turning at fixed rates, its optics a fitted map (the Mid-360).
+
+Livox's Mid-360 table is, to its own rounding, a function of two angles that turn at fixed rates:
+theta1 = 2 pi f1 t (f1 = -182.4167 Hz, the azimuth's mean turn) and delta = 2 pi f2 t (f2 = 10 Hz).
+For each laser l, at its shot's time t:
+
+    elevation = Re sum_{m=0..M} sum_{k=-K..K} E[l, m, k] exp(i (m theta1 + k delta))
+    azimuth   = theta1 + Re sum ... A[l, m, k] exp(i (m theta1 + k delta))
+
+`scan_patterns.fit_rotors` fits f1, f2 and the coefficients to the whole table and stores them in
+scan_patterns/reference/<table>_rotors.npz. The turning is physical, so the model runs on past the
+table without a seam (theta1 and delta come back together every 12 s, not 4); the optics between the
+elements and the beam (which leaves 38-97 deg from the axis, more than wedge prisms bend it) are not
+modelled, only fitted: a map of (M + 1) (2 K + 1) terms per laser and angle.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from scan_patterns.shots import dirs_from_angles
+from scan_patterns.timebase import cycles
+
+REFERENCE = Path(__file__).resolve().parent / "reference"
+FITS = {"mid360": 4}  # table -> its lasers: the fits stored as reference/<table>_rotors.npz
+CHUNK = 65_536  # shots evaluated at once (bounds the memory of the Fourier sums)
+
+
+@dataclass(frozen=True)
+class RotorParams:
+    fit: str = "mid360"  # the table whose fit to use: reference/<fit>_rotors.npz
+
+    def __post_init__(self) -> None:
+        if self.fit not in FITS:
+            raise ValueError(f"rotors: no fit of table {self.fit!r}; fitted: {', '.join(FITS)}")
+
+    @property
+    def lasers(self) -> int:
+        return FITS[self.fit]
+
+
+@dataclass(frozen=True)
+class RotorFit:
+    """Rates (Hz) of theta1 and delta, and per laser the complex coefficients (lasers, M + 1, 2 K + 1)
+    of elevation and of azimuth - theta1 (radians); k runs from -K to K."""
+
+    rates_hz: tuple[float, float]
+    elevation: NDArray[np.complex128]
+    azimuth: NDArray[np.complex128]
+
+
+@functools.cache
+def load(table: str) -> RotorFit:
+    """The stored fit of `table` (reference/<table>_rotors.npz)."""
+    with np.load(REFERENCE / f"{table}_rotors.npz") as data:
+        return RotorFit(tuple(float(r) for r in data["rates_hz"]), data["elevation"], data["azimuth"])
+
+
+def angles(fit: RotorFit, t_s: NDArray[np.float64], line: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(azimuth, elevation), radians float64, of lasers `line` at times `t_s` (s)."""
+    t_s, line = np.asarray(t_s, np.float64), np.asarray(line, np.intp)
+    orders, terms = fit.elevation.shape[1], fit.elevation.shape[2]
+    m, k = np.arange(orders), np.arange(terms) - terms // 2
+    azimuth, elevation = np.empty(len(t_s)), np.empty(len(t_s))
+    for start in range(0, len(t_s), CHUNK):
+        part = slice(start, start + CHUNK)
+        theta1, delta = cycles(t_s[part], fit.rates_hz[0]), cycles(t_s[part], fit.rates_hz[1])
+        e1, e2 = np.exp(1j * np.outer(theta1, m)), np.exp(1j * np.outer(delta, k))
+        azimuth[part] = theta1
+        elevation[part] = 0.0
+        for laser in np.unique(line[part]):
+            mine = np.flatnonzero(line[part] == laser)
+            elevation[start + mine] = ((e1[mine] @ fit.elevation[laser]) * e2[mine]).sum(1).real
+            azimuth[start + mine] += ((e1[mine] @ fit.azimuth[laser]) * e2[mine]).sum(1).real
+    return azimuth, elevation
+
+
+def directions(params: RotorParams, t_s: NDArray[np.float64], line: NDArray) -> NDArray[np.float32]:
+    """(N, 3) float32 head-frame unit directions of lasers `line` at times `t_s` (s)."""
+    azimuth, elevation = angles(load(params.fit), t_s, line)
+    return dirs_from_angles(azimuth, elevation).astype(np.float32)

@@ -1,0 +1,63 @@
+"""The `rotors` model of the Mid-360 against Livox's whole Mid-360 table (shipped), and its fit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import scan_patterns as sp
+from scan_patterns import fit_rotors, rotors
+from scan_patterns.shots import angle_between_deg, dirs_from_angles
+
+HEAD = sp.get_sensor("mid360-rotors").heads[0]
+TIMES_S = (0.1, 0.5, 1.0, 4.0)
+
+
+@pytest.fixture(scope="module")
+def pair():
+    return sp.head_shots(HEAD, 0.0, 4.0), sp.file_shots("mid360")
+
+
+def test_every_shot_within_the_tables_rounding(pair):
+    """The table gives azimuths in 0.01 deg steps (5-6 digits): rounding alone is up to 0.005 deg."""
+    model, reference = pair
+    assert sp.official_table(HEAD) == "mid360" and len(model) == len(reference) == 800_000
+    np.testing.assert_array_equal(model.line, reference.line)
+    error_deg = angle_between_deg(model.dirs, reference.dirs)
+    print(f"mid360-rotors vs the table: max {error_deg.max():.2e} deg, rms {np.sqrt(np.mean(error_deg**2)):.2e} deg")
+    assert error_deg.max() < 0.01 and np.sqrt(np.mean(error_deg**2)) < 0.003
+
+
+@pytest.mark.parametrize("cell_deg", sp.CELL_SIZES_DEG)
+def test_coverage_within_half_a_point_at_0_1_to_4_s(pair, cell_deg):
+    model, reference = pair
+    mine = sp.coverage_curve(model, HEAD.field_of_view, TIMES_S, cell_deg)
+    theirs = sp.coverage_curve(reference, HEAD.field_of_view, TIMES_S, cell_deg)
+    assert np.all(np.abs(mine - theirs) <= 0.005)
+
+
+def test_no_seam_at_4_s_and_no_4_s_period():
+    around = sp.head_shots(HEAD, 3.99, 4.01)
+    step = angle_between_deg(around.dirs[4:], around.dirs[:-4])  # each laser's own consecutive shots
+    assert step.max() < 1.5 * np.median(step)  # the looped table jumps 69-74 deg here
+    first, second = sp.head_shots(HEAD, 0.0, 0.1), sp.head_shots(HEAD, 4.0, 4.1)
+    assert np.median(angle_between_deg(first.dirs, second.dirs)) > 1.0
+
+
+def test_stored_rates_are_whole_degrees_per_second_and_hertz():
+    """-65,670 deg/s and 10 Hz: fit_rotors returns them to 1e-6 Hz from the table alone."""
+    fit = rotors.load("mid360")
+    assert len(fit.elevation) == len(fit.azimuth) == rotors.FITS["mid360"] == HEAD.lasers
+    f1, f2 = fit.rates_hz
+    assert f1 == pytest.approx(-65_670.0 / 360.0, abs=1e-6) and f2 == pytest.approx(10.0, abs=1e-6)
+
+
+def test_fit_on_one_second_finds_the_rates_and_a_map_that_holds_for_the_next_three():
+    reference = sp.file_shots("mid360")
+    first = reference.t_s <= 1.0
+    result = fit_rotors.fit(reference.t_s[first], reference.dirs[first], reference.line[first], (3, 12))
+    np.testing.assert_allclose(result.rates_hz, rotors.load("mid360").rates_hz, atol=1e-5)
+    later = ~first
+    azimuth, elevation = rotors.angles(result, reference.t_s[later], reference.line[later])
+    error_deg = angle_between_deg(dirs_from_angles(azimuth, elevation), reference.dirs[later])
+    assert error_deg.max() < 0.02
