@@ -30,9 +30,9 @@ from trimesh.transformations import transform_points
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # this tree's packages, and tests.support's poses
 
-from simgen.body import mesh as body  # noqa: E402
-from simgen.vocab import TEAM_NAMES  # noqa: E402
-from tests.support.poses import keypoints, random_pose  # noqa: E402
+from simgen.body import mesh as body
+from simgen.vocab import TEAM_NAMES
+from tests.support.poses import keypoints, random_pose
 
 HUMANOIDS = (1, 25, 100)
 REPEATS = 5  # timing runs of at least 0.2 s each; the best counts

@@ -33,9 +33,9 @@ from table import machine, markdown_table, write_results
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # this tree's packages, and tests.support's synthetic frames
 
-import simgen.datasets  # noqa: E402
-from simgen.datasets import FORMATS, finish_dataset, parquet, write_clip  # noqa: E402
-from tests.support.datasets import make_clip, sensors  # noqa: E402
+import simgen.datasets
+from simgen.datasets import FORMATS, finish_dataset, parquet, write_clip
+from tests.support.datasets import make_clip, sensors
 
 POINTS = 25_000
 HUMANOIDS = 25

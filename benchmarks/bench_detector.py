@@ -24,11 +24,11 @@ from table import machine, markdown_table, write_results
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from train.config import load_config  # noqa: E402
-from train.data import SampleSet, collate, loader  # noqa: E402
-from train.losses import detection_loss  # noqa: E402
-from train.models.detector import build_detector  # noqa: E402
-from train.postprocess import postprocess  # noqa: E402
+from train.config import load_config
+from train.data import SampleSet, collate, loader
+from train.losses import detection_loss
+from train.models.detector import build_detector
+from train.postprocess import postprocess
 
 MODELS = ("single", "early", "late")
 

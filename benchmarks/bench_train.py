@@ -29,31 +29,31 @@ import os
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
-import csv  # noqa: E402
-import io  # noqa: E402
-import resource  # noqa: E402
-import statistics  # noqa: E402
-import subprocess  # noqa: E402
-import sys  # noqa: E402
-import tarfile  # noqa: E402
-import tempfile  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import csv
+import io
+import resource
+import statistics
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+from pathlib import Path
 
-import torch  # noqa: E402
-import yaml  # noqa: E402
-from table import machine, markdown_table, write_results  # noqa: E402
+import torch
+import yaml
+from table import machine, markdown_table, write_results
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from train.config import parse_config  # noqa: E402
-from train.data import SampleSet, loader  # noqa: E402
-from train.evaluate import average_precisions, predict, visible_objects  # noqa: E402
-from train.fit import autocast  # noqa: E402
-from train.losses import detection_loss  # noqa: E402
-from train.models.detector import build_detector  # noqa: E402
+from train.config import parse_config
+from train.data import SampleSet, loader
+from train.evaluate import average_precisions, predict, visible_objects
+from train.fit import autocast
+from train.losses import detection_loss
+from train.models.detector import build_detector
 
 PACKAGES = ("simgen", "train", "scan_patterns")
 

@@ -20,11 +20,11 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from train.checkpoint import load_checkpoint  # noqa: E402
-from train.config import load_config  # noqa: E402
-from train.evaluate import evaluate, mean_ap  # noqa: E402
-from train.fit import fit  # noqa: E402
-from train.models.detector import Detector  # noqa: E402
+from train.checkpoint import load_checkpoint
+from train.config import load_config
+from train.evaluate import evaluate, mean_ap
+from train.fit import fit
+from train.models.detector import Detector
 
 ROWS = (("single", "x2"), ("late", "x2"), ("single", "x1"), ("early", "x1"), ("late", "x1"))
 LABELS = {"single": "Single Frame", "early": "Early Fusion", "late": "Late Fusion"}

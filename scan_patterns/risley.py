@@ -24,7 +24,6 @@ from numpy.typing import NDArray
 from scan_patterns.timebase import cycles
 
 
-
 @dataclass(frozen=True)
 class RisleyParams:
     """A Risley pair: prism 1 is the one the laser meets first."""

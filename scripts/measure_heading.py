@@ -24,11 +24,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from simgen.body.heading import heading, wrap_angle  # noqa: E402
-from simgen.motion.engine import capture_motion  # noqa: E402
-from simgen.pipeline.clip import engine_seed  # noqa: E402
-from simgen.scenario import load_scenario  # noqa: E402
-from simgen.vocab import KEYPOINT_INDEX  # noqa: E402
+from simgen.body.heading import heading, wrap_angle
+from simgen.motion.engine import capture_motion
+from simgen.pipeline.clip import engine_seed
+from simgen.scenario import load_scenario
+from simgen.vocab import KEYPOINT_INDEX
 
 WINDOW_S = 0.5  # the averaging window that separates turning from the stride's twist
 

@@ -31,7 +31,7 @@ DISK_ERRORS = {
 class _Parser(argparse.ArgumentParser):
     """argparse, but usage errors are one line (argparse already exits 2)."""
 
-    def error(self, message: str) -> None:  # noqa: D102 - argparse API
+    def error(self, message: str) -> None:
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 

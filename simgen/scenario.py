@@ -14,7 +14,16 @@ import os
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_serializer, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
 
 import scan_patterns
 from scan_patterns.replay import OFFICIAL_FILES
@@ -121,7 +130,7 @@ class DatasetConfig(_Strict):
     )
 
     @model_validator(mode="after")
-    def _images_for_kitti(self) -> "DatasetConfig":
+    def _images_for_kitti(self) -> DatasetConfig:
         if self.kitti_images and not dataset_format(self.format).placeholder_images:
             takers = " or ".join(formats_where(lambda f: f.placeholder_images))
             raise ValueError(f"dataset.kitti_images: placeholder images are for format {takers}, not {self.format}")
@@ -147,7 +156,7 @@ class NoiseConfig(_Strict):
     enabled: bool = Field(True, description="False: exact ranges and directions, no dropout (range limits still apply).")
 
     @model_validator(mode="after")
-    def _ranges_ordered(self) -> "NoiseConfig":
+    def _ranges_ordered(self) -> NoiseConfig:
         if self.min_range_m >= self.max_range_at_10pct_m:
             raise ValueError(
                 f"min_range_m {self.min_range_m:g} m is not below max_range_at_10pct_m {self.max_range_at_10pct_m:g} m"
@@ -231,7 +240,7 @@ class HeadConfig(_Strict):
         return params
 
     @model_validator(mode="after")
-    def _pattern_params(self, info: ValidationInfo) -> "HeadConfig":
+    def _pattern_params(self, info: ValidationInfo) -> HeadConfig:
         if self.like is None and self.pattern is None:
             raise ValueError("a head needs 'pattern' (risley, rose or replay) or 'like' (a sensor preset)")
         pattern = self.pattern or scan_patterns.get_sensor(self.like).heads[0].pattern
@@ -312,7 +321,7 @@ class Scenario(_Strict):
         return self.scan.frames or math.floor(motion_s * self.scan.frame_rate_hz + 1e-9)
 
     @model_validator(mode="after")
-    def _presets_exist(self) -> "Scenario":
+    def _presets_exist(self) -> Scenario:
         known = set(scan_patterns.sensor_names()) | {sensor.name for sensor in self.custom_sensors}
         for i, sensor in enumerate(self.sensors):
             if sensor.preset not in known:
@@ -320,7 +329,7 @@ class Scenario(_Strict):
         return self
 
     @model_validator(mode="after")
-    def _motion_covers_the_frames(self) -> "Scenario":
+    def _motion_covers_the_frames(self) -> Scenario:
         motion_s = (self.motion.frames - 1) / self.motion.capture_hz
         if self.scan.frames is not None and self.scan.frames / self.scan.frame_rate_hz > motion_s + 1e-9:
             raise ValueError(
@@ -341,7 +350,7 @@ class Scenario(_Strict):
         return self
 
     @model_validator(mode="after")
-    def _shot_budget(self) -> "Scenario":
+    def _shot_budget(self) -> Scenario:
         shots_per_s = self.scan.density * sum(spec.shots_per_s for spec in self.sensor_specs())
         if shots_per_s > MAX_SHOTS_PER_S:
             raise ValueError(

@@ -129,9 +129,9 @@ def test_the_openpcdet_card_gives_a_class_map_and_a_dataset_yaml_that_fit_the_da
     import re
 
     import yaml
-    from tests.support.datasets import write_dataset
 
     from simgen.datasets import openpcdet_config
+    from tests.support.datasets import write_dataset
 
     write_dataset(tmp_path, "openpcdet", [make_clip("clip_0000", 3)])
     card = (tmp_path / "README.md").read_text()

@@ -18,8 +18,15 @@ from scipy.spatial.transform import Rotation
 
 import simgen.datasets
 from simgen.cli import main
-from simgen.datasets.ros2_bag import (BOXES_TOPIC, LIVOX_LAYOUT, SIMGEN_LAYOUT, TF_STATIC_TOPIC, XYZI_LAYOUT, cloud_array,
-                                     points_topic)
+from simgen.datasets.ros2_bag import (
+    BOXES_TOPIC,
+    LIVOX_LAYOUT,
+    SIMGEN_LAYOUT,
+    TF_STATIC_TOPIC,
+    XYZI_LAYOUT,
+    cloud_array,
+    points_topic,
+)
 from simgen.qa.sensors import sensor_geometry
 from simgen.scan.sensor_info import SensorInfo
 from tests.support.datasets import make_clip, sensors, write_dataset

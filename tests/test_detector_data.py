@@ -163,7 +163,6 @@ def test_no_training_window_shares_a_frame_with_a_val_window(tmp_path, protocol)
     """Both splits: train and val windows (t-2..t) never share a frame; `frame` holds out about one clip's
     frames spread over every clip, `clip` whole clips."""
     from tests.support.datasets import make_clip, write_dataset
-
     from train.data import sample_keys
 
     write_dataset(tmp_path, "parquet", [make_clip(f"clip_{i:04d}", 40, points=50, humanoids=2, seed=i) for i in range(4)])

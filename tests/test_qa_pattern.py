@@ -10,8 +10,8 @@ import cv2
 import pytest
 import yaml
 
-from simgen.cli import main
 from scan_patterns import HeadSpec
+from simgen.cli import main
 from simgen.qa.pattern import head_qa
 from simgen.qa.tolerances import DEFAULT_PATH, load_tolerances
 from tests.support import ROOT, chromium

@@ -11,9 +11,9 @@ import pytest
 
 import scan_patterns as sp
 from scan_patterns.livox_tables import TABLES
-from scan_patterns.write_tables import write_table
 from scan_patterns.replay import load_pattern_file
 from scan_patterns.shots import angle_between_deg
+from scan_patterns.write_tables import write_table
 from simgen.cli import main
 
 PRESETS = {"avia": "avia-replay", "horizon": "horizon-replay", "tele": "tele15-replay", "hap": "hap-replay", "mid360": "mid360-replay"}

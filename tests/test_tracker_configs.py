@@ -5,8 +5,14 @@ import pytest
 import yaml
 
 from simgen.errors import UserError
-from tests.support.tracking_clips import (FLOOD, FULL_TRACKER, NOISY_DETECTOR, PlayersConfig, make_tracklets,
-                                         simulate_players)
+from tests.support.tracking_clips import (
+    FLOOD,
+    FULL_TRACKER,
+    NOISY_DETECTOR,
+    PlayersConfig,
+    make_tracklets,
+    simulate_players,
+)
 from train.nms import nms_bev, nms_centre
 from train.study import TRACKER_CONFIGS
 from train.tracking.ab3dmot import Ab3dmot

@@ -48,7 +48,7 @@ def ids_over_time(out: list[TrackedFrame]) -> list[list[int]]:
 
 
 def test_new_trajectories_are_output_after_three_consecutive_frames():
-    flicker = walker(0.0, 0.3, range(0, 2))  # two frames, then gone
+    flicker = walker(0.0, 0.3, range(2))  # two frames, then gone
     steady = walker(20.0, 0.3, range(5, 12))
     out = run(DiouTracker(), frames_of(flicker, steady, n_frames=12))
     assert ids_over_time(out) == [[]] * 7 + [[1]] * 5
@@ -247,7 +247,7 @@ def test_a_player_the_engine_places_elsewhere_is_born_again(config):
     """A restart: the player vanishes at x = 0 and walks on from x = 30 m. No tracker links the two (a jump of
     30 m is beyond every association gate): the old track ends, the new place is a new birth, as the
     study's ground truth counts it (`train.study.truth_frames`)."""
-    before = walker(0.0, 0.3, range(0, 10))
+    before = walker(0.0, 0.3, range(10))
     after = {f: boxes + [30.0, 0, 0, 0, 0, 0, 0] for f, boxes in walker(0.0, 0.3, range(10, 25)).items()}
     after = {f: boxes for f, boxes in after.items() if f >= 12}  # the detector's window no longer spans the jump
     out = track_clip(make_tracker(config), frames_of(before, after, n_frames=25))

@@ -32,12 +32,36 @@ from tests.support.detector import smoke_dataset, tiny_config
 from tests.support.hostile import SETTINGS, assert_one_line_refusal, measured_process, refuse_generated, run_main
 from train.checkpoint import FORMAT, VERSION, Checkpoint, save_checkpoint
 from train.cli import main
-from train.config import (MAX_ANCHORS, MAX_BATCH, MAX_CHANNELS, MAX_DETECTIONS, MAX_GRID_CELLS, MAX_ITERATIONS, MAX_LAYERS,
-                          MAX_LR, MAX_PRE_NMS, MAX_RANGE_M, MAX_SEED, MAX_STRIDE, MAX_WORKERS, MIN_PILLAR_M, load_config,
-                          parse_config)
+from train.config import (
+    MAX_ANCHORS,
+    MAX_BATCH,
+    MAX_CHANNELS,
+    MAX_DETECTIONS,
+    MAX_GRID_CELLS,
+    MAX_ITERATIONS,
+    MAX_LAYERS,
+    MAX_LR,
+    MAX_PRE_NMS,
+    MAX_RANGE_M,
+    MAX_SEED,
+    MAX_STRIDE,
+    MAX_WORKERS,
+    MIN_PILLAR_M,
+    load_config,
+    parse_config,
+)
 from train.models.detector import Detector
-from train.preflight import (MAX_SEEDS, NMS_BYTES_PER_PAIR, check_memory, check_resume, check_workers, cpu_cores,
-                             estimate_memory, parameter_counts, parse_seeds)
+from train.preflight import (
+    MAX_SEEDS,
+    NMS_BYTES_PER_PAIR,
+    check_memory,
+    check_resume,
+    check_workers,
+    cpu_cores,
+    estimate_memory,
+    parameter_counts,
+    parse_seeds,
+)
 from train.tracking.config import MAX_TRACK_FRAMES
 
 DETECTOR_CONFIGS = 300

@@ -56,7 +56,7 @@ SPLITS = ("train", "val", "all")
 class _Parser(argparse.ArgumentParser):
     """argparse, but usage errors are one line (argparse already exits 2)."""
 
-    def error(self, message: str) -> None:  # noqa: D102 - argparse API
+    def error(self, message: str) -> None:
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 

@@ -65,7 +65,7 @@ class AugmentConfig(_Strict):
     scale: tuple[float, float] = (0.95, 1.05)  # uniform factor range, each in (0, 10]
 
     @model_validator(mode="after")
-    def _ordered(self) -> "AugmentConfig":
+    def _ordered(self) -> AugmentConfig:
         if not 0.0 < self.scale[0] <= self.scale[1] <= 10.0:
             raise ValueError("'data.augment.scale': needs 0 < low <= high <= 10")
         return self
@@ -83,7 +83,7 @@ class DataConfig(_Strict):
     split: Literal["clip", "frame"] = "clip"
 
     @model_validator(mode="after")
-    def _grid(self) -> "DataConfig":
+    def _grid(self) -> DataConfig:
         x0, y0, z0, x1, y1, z1 = self.point_range_m
         if not (x0 < x1 and y0 < y1 and z0 < z1):
             raise ValueError("'data.point_range_m': needs x0 < x1, y0 < y1, z0 < z1")
@@ -126,7 +126,7 @@ class Backbone2dConfig(_Strict):
         return self.strides[0] // self.upsample_strides[0]
 
     @model_validator(mode="after")
-    def _common_size(self) -> "Backbone2dConfig":
+    def _common_size(self) -> Backbone2dConfig:
         total, sizes = 1, []
         for stride, up in zip(self.strides, self.upsample_strides):
             total *= stride
@@ -206,7 +206,7 @@ class ModelConfig(_Strict):
         return METHODS[self.fusion.name]
 
     @model_validator(mode="after")
-    def _boxes(self) -> "ModelConfig":
+    def _boxes(self) -> ModelConfig:
         if self.fusion.input_frames == 1 and self.head.tracklet_boxes != 1:
             raise ValueError("'model.head.tracklet_boxes': a single-frame model regresses 1 box")
         return self
@@ -254,7 +254,7 @@ class DetectorConfig(_Strict):
     infer: InferConfig = InferConfig()
 
     @model_validator(mode="after")
-    def _bounds(self) -> "DetectorConfig":
+    def _bounds(self) -> DetectorConfig:
         """Checks across fields, here so that the line names the field by its whole path."""
         x0, y0, _, x1, y1, _ = self.data.point_range_m
         size = self.data.pillar_size_m
@@ -275,7 +275,7 @@ class DetectorConfig(_Strict):
         return self
 
     @model_validator(mode="after")
-    def _weights(self) -> "DetectorConfig":
+    def _weights(self) -> DetectorConfig:
         boxes = self.model.head.tracklet_boxes
         if len(self.loss.loc_weights) < boxes:
             raise ValueError(f"'loss.loc_weights': needs {boxes} weights")

@@ -183,13 +183,13 @@ class Batch:
     targets: Any  # the assigner's collated targets (train.models.target_assigner.BatchTargets), or None
     samples: tuple[Sample, ...]
 
-    def to(self, device: torch.device, non_blocking: bool = False) -> "Batch":
+    def to(self, device: torch.device, non_blocking: bool = False) -> Batch:
         targets = None if self.targets is None else self.targets.to(device, non_blocking=non_blocking)
         return replace(self, features=self.features.to(device, non_blocking=non_blocking),
                        pillar=self.pillar.to(device, non_blocking=non_blocking),
                        point_pillar=self.point_pillar.to(device, non_blocking=non_blocking), targets=targets)
 
-    def pin_memory(self) -> "Batch":
+    def pin_memory(self) -> Batch:
         """Page-locked copies, for asynchronous copies to a CUDA device (DataLoader(pin_memory=True) calls it)."""
         targets = None if self.targets is None else self.targets.pin_memory()
         return replace(self, features=self.features.pin_memory(), pillar=self.pillar.pin_memory(),

@@ -14,10 +14,10 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402 - after choosing the backend
+import matplotlib.pyplot as plt
 
-from simgen.atomic import atomic_path  # noqa: E402
-from train.evaluate import ApRow, mean_ap  # noqa: E402
+from simgen.atomic import atomic_path
+from train.evaluate import ApRow, mean_ap
 
 CSV_NAME = "learning_curve.csv"
 PNG_NAME = "learning_curve.png"

@@ -6,8 +6,8 @@ import argparse
 import functools
 import textwrap
 from collections import UserString
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 
 class LazyText(UserString):

@@ -7,7 +7,6 @@ import sys
 import warnings
 from pathlib import Path
 
-
 from simgen import __version__
 from simgen.atomic import atomic_path
 from simgen.commands.arguments import LazyText, add_command

@@ -18,7 +18,7 @@ import contextlib
 import importlib.util
 import os
 import pkgutil
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

@@ -8,7 +8,7 @@ order, by any worker, with identical results.
 from __future__ import annotations
 
 import math
-from typing import Iterator
+from collections.abc import Iterator
 
 import numpy as np
 

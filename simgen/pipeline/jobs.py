@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from simgen.datasets.formats import dataset_format  # names only: imports no writer
 from simgen.pipeline.memory import release_memory

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
 from contextlib import contextmanager
 from multiprocessing import get_context
-from typing import Iterator
 
 from simgen.pipeline.executor import Executor, forward, run_job_reporting
 from simgen.pipeline.jobs import Job, Progress, run_job

@@ -10,9 +10,9 @@ import numpy as np
 
 import scan_patterns as sp
 from simgen.datasets.reader import Dataset
+from simgen.labels.statistics import summary_rows
 from simgen.qa import plots
 from simgen.qa.checks import Check
-from simgen.labels.statistics import summary_rows
 from simgen.qa.dataset import DatasetQA, dataset_qa
 from simgen.qa.integrity import Verification, verify_dataset
 from simgen.qa.pattern import HeadQA, sensor_qa

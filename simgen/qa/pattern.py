@@ -22,7 +22,7 @@ WINDOW_S = 4.0  # the official files' length
 FRAME_S = 0.1  # one 10 Hz frame
 ACCUMULATED_S = 0.5
 TARGET_RANGES_M = tuple(float(r) for r in range(10, 131, 10))  # on the boresight
-TARGET_OFF_AXIS_DEG = tuple(float(a) for a in range(0, 20))  # at TARGET_AT_M
+TARGET_OFF_AXIS_DEG = tuple(float(a) for a in range(20))  # at TARGET_AT_M
 TARGET_AT_M = 50.0
 
 

@@ -10,13 +10,13 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402 - after choosing the backend
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from scan_patterns import HeadSpec  # noqa: E402
-from simgen.atomic import atomic_path  # noqa: E402
-from simgen.qa.dataset import DatasetQA  # noqa: E402
-from simgen.qa.pattern import ACCUMULATED_S, FRAME_S, TARGET_AT_M, TARGET_OFF_AXIS_DEG, TARGET_RANGES_M, HeadQA, window  # noqa: E402
+from scan_patterns import HeadSpec
+from simgen.atomic import atomic_path
+from simgen.qa.dataset import DatasetQA
+from simgen.qa.pattern import ACCUMULATED_S, FRAME_S, TARGET_AT_M, TARGET_OFF_AXIS_DEG, TARGET_RANGES_M, HeadQA, window
 
 DPI = 100
 REFERENCE_STYLE = {"color": "black", "linestyle": "--", "linewidth": 1.6}

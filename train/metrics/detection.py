@@ -30,7 +30,6 @@ from train.geometry import bev_iou_pairs, iou_3d_pairs
 from train.metrics.recall_levels import level_thresholds
 
 
-
 def centre_closeness_pairs(a: NDArray, b: NDArray) -> NDArray[np.float64]:
     """(N,) minus the BEV (pitch-plane) distance in metres of the centres of row i of a and b (N, 7)."""
     return -np.linalg.norm(np.asarray(a, np.float64)[:, :2] - np.asarray(b, np.float64)[:, :2], axis=-1)

@@ -44,10 +44,10 @@ class BatchTargets:
     box_mask: torch.Tensor  # (n, K) bool
     direction: torch.Tensor  # (n,) int64
 
-    def to(self, device: torch.device, non_blocking: bool = False) -> "BatchTargets":
+    def to(self, device: torch.device, non_blocking: bool = False) -> BatchTargets:
         return BatchTargets(*(t.to(device, non_blocking=non_blocking) for t in self._tensors()))
 
-    def pin_memory(self) -> "BatchTargets":
+    def pin_memory(self) -> BatchTargets:
         return BatchTargets(*(t.pin_memory() for t in self._tensors()))
 
     def _tensors(self) -> tuple[torch.Tensor, ...]:

@@ -47,7 +47,7 @@ class AssociationConfig(_Strict):
     weights: tuple[Share, Share] = (0.4, 0.6)  # tracklet_diou: of the DIoU at t-2 and at t-1, summing to 1
 
     @model_validator(mode="after")
-    def _sum(self) -> "AssociationConfig":
+    def _sum(self) -> AssociationConfig:
         if abs(sum(self.weights) - 1.0) > 1e-6:
             raise ValueError(f"'association.weights': {self.weights[0]:g} + {self.weights[1]:g} is not 1")
         return self
@@ -69,7 +69,7 @@ class TrackerConfig(_Strict):
     split: bool  # the paper's split of fused tracklets (tracklet_diou only)
 
     @model_validator(mode="after")
-    def _modules(self) -> "TrackerConfig":
+    def _modules(self) -> TrackerConfig:
         if self.association.method == "iou_3d":
             for field, value in (("split", self.split), ("life_cycle.backfill", self.life_cycle.backfill)):
                 if value:
