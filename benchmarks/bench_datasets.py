@@ -127,11 +127,11 @@ def measure(frames, work: Path) -> list[tuple[str, float, float, float, float]]:
     rows = []
     for index, (name, write, read, read_unchecked) in enumerate(cases):
         root = work / str(index)
-        write_s = best_seconds(lambda: write(root), lambda: shutil.rmtree(root, ignore_errors=True))
+        write_s = best_seconds(functools.partial(write, root), functools.partial(shutil.rmtree, root, ignore_errors=True))
         if read_unchecked is read:
-            read_s = unchecked_s = best_seconds(lambda: read(root), lambda: None)
+            read_s = unchecked_s = best_seconds(functools.partial(read, root), lambda: None)
         else:
-            read_s, unchecked_s = best_alternating([lambda: read(root), lambda: read_unchecked(root)])
+            read_s, unchecked_s = best_alternating([functools.partial(read, root), functools.partial(read_unchecked, root)])
         size = sum(p.stat().st_size for p in root.rglob("*") if p.is_file())
         rows.append((name, size / count, count / write_s, count / read_s, count / unchecked_s))
         print(f"{name}: {size / count:,.0f} B/frame, {count / write_s:,.1f} written, {count / read_s:,.1f} read "

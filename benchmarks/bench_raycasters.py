@@ -47,7 +47,9 @@ def _open3d(vertices, faces, origins, directions):
 
     scene = build()
     rays = np.concatenate([origins, directions], axis=1).astype(np.float32)
-    cast = lambda: scene.cast_rays(o3d.core.Tensor(rays), nthreads=1)["t_hit"].numpy()  # noqa: E731
+    def cast():
+        return scene.cast_rays(o3d.core.Tensor(rays), nthreads=1)["t_hit"].numpy()
+
     return _best(build), _best(cast), cast()
 
 
@@ -59,7 +61,9 @@ def _embreex(vertices, faces, origins, directions):
 
     scene = build()
     o, d = origins.astype(np.float32), directions.astype(np.float32)
-    cast = lambda: scene.run(o, d, output=1)["tfar"]  # noqa: E731
+    def cast():
+        return scene.run(o, d, output=1)["tfar"]
+
     return _best(build), _best(cast), cast()
 
 

@@ -88,7 +88,7 @@ def write(rows: list, args: argparse.Namespace, results: Path, device: torch.dev
         "| Method | BEV | 3D | Δ of 3D | paper BEV | paper 3D | train samples/s |",
         "|---|---|---|---|---|---|---|",
     ]
-    for model, density, ap, truth, fit_s, sps, fps in rows:
+    for model, density, ap, _truth, _fit_s, sps, _fps in rows:
         ref = {"single": single_x2, "late": late_x2}.get(model) if density == "x1" else None
         delta = f"{ap['3d', 40] - ref:+.2f}" if ref is not None else "–"
         paper = PAPER[model, density]

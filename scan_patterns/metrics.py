@@ -12,7 +12,6 @@ equidistant projection, and the field of view is the disc rho <= fov / 2; in a b
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Union
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,7 +23,7 @@ CELL_SIZES_DEG = (0.1, 0.2, 0.3)
 BEAM_DIVERGENCE_DEG = (0.03, 0.28)  # Livox Mid-40 datasheet: horizontal (y) x vertical (z), full angles
 TARGET_SIZE_M = (0.5, 1.8)  # width x height of the upright person-sized target
 
-FieldOfView = Union[float, tuple[float, float, float, float]]  # cone angle, or (az min, max, el min, max); degrees
+FieldOfView = float | tuple[float, float, float, float]  # cone angle, or (az min, max, el min, max); degrees
 
 
 def projected_deg(dirs: NDArray) -> NDArray[np.float64]:
@@ -152,7 +151,7 @@ def target_points_per_frame(
     s = np.divide(centre @ normal, facing, out=np.full(len(d), -1.0), where=facing > 1e-9)
     offset = d * s[:, None] - centre
     hit = (s > 0) & (np.abs(offset @ across) <= size_m[0] / 2) & (np.abs(offset[:, 2]) <= size_m[1] / 2)
-    frames = max(1, int(round(shots.duration_s * frame_rate_hz)))
+    frames = max(1, round(shots.duration_s * frame_rate_hz))
     frame = np.ceil((shots.t_s[hit] - shots.t0_s) * frame_rate_hz - 1e-6).astype(np.int64) - 1
     return np.bincount(np.clip(frame, 0, frames - 1), minlength=frames)
 

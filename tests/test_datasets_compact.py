@@ -51,7 +51,7 @@ def _assert_refused(done, out: Path, *said: str) -> None:
 
 def test_round_trip_moves_points_by_at_most_half_a_millimetre(dataset, packed, tmp_path):
     assert not (packed / "manifest.json").exists()
-    with pytest.raises(UserError, match="no manifest.json"):
+    with pytest.raises(UserError, match=r"no manifest\.json"):
         simgen.datasets.open(packed)
     points = [sum(p.stat().st_size for p in (root / "points").rglob("*.parquet")) for root in (packed, dataset)]
     assert points[0] < 0.7 * points[1]  # 0.64 on these random points; 0.36 on paper_x1's scans

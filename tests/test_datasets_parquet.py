@@ -181,5 +181,5 @@ def test_point_counts_that_disagree_with_the_points_are_refused(tmp_path):
         if entry["path"] == relative:
             entry.update(bytes=(tmp_path / relative).stat().st_size, sha256=sha256_file(tmp_path / relative))
     (tmp_path / MANIFEST_NAME).write_text(json.dumps(manifest))
-    with pytest.raises(UserError, match="frame 0's points are not where the frames table counts them$"):
+    with pytest.raises(UserError, match=r"frame 0's points are not where the frames table counts them$"):
         simgen.datasets.open(tmp_path).frame("clip_0000", 0)

@@ -82,7 +82,7 @@ def test_boxes_are_tight_around_the_mesh():
 
 def test_standing_box():
     boxes = boxes_from_keypoints(keypoints(PRESETS["standing"])[None])
-    (x, y, z, length, width, height, yaw) = boxes.array[0]
+    (_, y, z, length, width, height, yaw) = boxes.array[0]
     assert z - height / 2 == pytest.approx(0.0)  # from the ground
     assert 1.7 <= height <= 1.9
     assert 0.40 <= width <= 0.6 and 0.3 <= length <= 0.6

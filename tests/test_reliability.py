@@ -91,7 +91,7 @@ def _binary(tmp: Path) -> Path:
 
 
 def _files(directory: Path) -> set[Path]:
-    return {p for p in directory.rglob("*")}
+    return set(directory.rglob("*"))
 
 
 def test_bad_input_table(tmp_path):
@@ -277,7 +277,7 @@ def test_ray_worker_killed_mid_task_is_retried(reference, tmp_path):
                 os.kill(int(tasks[0]), signal.SIGKILL)
                 killed = int(tasks[0])
             time.sleep(0.05)
-        stdout, stderr = driver.communicate(timeout=600)
+        _, stderr = driver.communicate(timeout=600)
     assert killed is not None, "no Ray task was seen running"
     assert driver.returncode == 0, stderr[-2000:]
     assert _shas(out) == _shas(reference[0])

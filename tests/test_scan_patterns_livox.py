@@ -91,7 +91,7 @@ def test_past_the_table_it_loops_loudly_and_jumps_at_the_seam(name, seam_deg):
 
 def test_the_table_tool_refuses_another_source(tmp_path):
     (tmp_path / "avia.npy").write_bytes(b"not mujoco-lidar's table")
-    with pytest.raises(ValueError, match="sha256 .*not mujoco-lidar 0.3.5's"):
+    with pytest.raises(ValueError, match=r"sha256 .*not mujoco-lidar 0\.3\.5's"):
         write_table(TABLES["avia"], tmp_path, tmp_path, full=False)
     assert [p.name for p in tmp_path.iterdir()] == ["avia.npy"]
 

@@ -20,7 +20,7 @@ def test_the_issue_presets_are_registered():
 
 
 def test_unknown_sensor_names_the_known_ones():
-    with pytest.raises(ValueError, match="^unknown sensor 'mid41'; known: .*mid40-risley"):
+    with pytest.raises(ValueError, match=r"^unknown sensor 'mid41'; known: .*mid40-risley"):
         sp.get_sensor("mid41")
     with pytest.raises(KeyError):  # a failed lookup, too
         sp.get_sensor("mid41")

@@ -129,7 +129,7 @@ def test_the_paper_preset_runs_table1s_five_rows_and_table2(study, tmp_path, mon
     monkeypatch.setitem(train.cli.PRESETS, "paper", (configs, (("tiny.yaml", ("single", "early", "late")),
                                                                ("tiny_x2.yaml", ("single", "late")))))
     monkeypatch.setattr(train.cli, "SCENARIOS", folder)
-    code, stdout, stderr = run_study("--preset", "paper", "-o", tmp_path / "out", "--datasets", datasets, "--iterations", 1,
+    code, _, stderr = run_study("--preset", "paper", "-o", tmp_path / "out", "--datasets", datasets, "--iterations", 1,
                                      "--quiet")
     assert code == 0, stderr[-2000:]
     for name, methods in (("tiny", METHODS), ("tiny_x2", ("Single Frame (x2)", "Late Fusion (x2)"))):
@@ -184,7 +184,7 @@ def test_a_second_study_reuses_the_dataset_and_the_late_checkpoint(study):
     assert code == 0, stderr[-2000:]
     text = (out / "table1.md").read_text()
     assert "reused (same resolved scenario)" in text and "late 2 iterations x batch 2 (checkpoint reused)" in text
-    assert [line for line in text.splitlines() if "(x1) |" in line][0].startswith("| Late Fusion (x1) |")
+    assert next(line for line in text.splitlines() if "(x1) |" in line).startswith("| Late Fusion (x1) |")
 
 
 @pytest.mark.parametrize(
@@ -222,7 +222,7 @@ def test_seeds_and_the_frame_split(study, tmp_path):
         assert "Not run: with the frame split" in (out / f"seed_{seed}" / "table2.md").read_text()
     table1 = (out / "table1.md").read_text()
     assert "over training seeds 0, 1" in table1 and "Late Fusion > Single Frame: holds in" in table1
-    rows = [line for line in table1.splitlines() if line.startswith("| Late Fusion") or line.startswith("| Single Frame")]
+    rows = [line for line in table1.splitlines() if line.startswith(("| Late Fusion", "| Single Frame"))]
     assert len(rows) == 2 and all(" ± " in row for row in rows)
     assert "Not run" in (out / "table2.md").read_text()
     code, _, stderr = run_study(scenario, "-o", out, "--seeds", "0,0", "--quiet")

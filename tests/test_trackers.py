@@ -124,7 +124,7 @@ def meeting_tracklets(fuse: bool) -> tuple[list[Tracklets], np.ndarray]:
 
 
 def test_split_keeps_both_players_through_a_long_meeting():
-    frames, truth = meeting_tracklets(fuse=True)
+    frames, _ = meeting_tracklets(fuse=True)
     out = run(DiouTracker(), frames)
     first = {int(i): b for i, b in zip(out[5].ids, out[5].boxes)}
     left_id = min(first, key=lambda i: first[i][0])

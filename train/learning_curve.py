@@ -75,7 +75,7 @@ def read_curve(out: Path, until: int) -> list[CurvePoint]:
         for row in csv.DictReader(file):
             if int(row["iteration"]) > until:
                 break
-            count = dict(truth=int(row["truth"]), detections=int(row["detections"]))
+            count = {"truth": int(row["truth"]), "detections": int(row["detections"])}
             rows = [ApRow("t", iou, n, float(row[f"{iou}_r{n}"]), **count) for n in (40, 11) for iou in ("bev", "3d")]
             points.append(CurvePoint(int(row["iteration"]), rows, float(row["eval_s"])))
     return points

@@ -75,7 +75,7 @@ def parameter_counts(config: DetectorConfig) -> dict[str, int]:
     pfn = model.pillar_encoder.channels
     backbone, inputs = 0, pfn
     b = model.backbone_2d
-    for layers, stride, channels, up, up_channels in zip(b.layers, b.strides, b.channels, b.upsample_strides, b.upsample_channels):
+    for layers, channels, up, up_channels in zip(b.layers, b.channels, b.upsample_strides, b.upsample_channels):
         backbone += 9 * inputs * channels + (layers - 1) * 9 * channels * channels + 4 * channels * layers
         backbone += channels * up_channels * up * up + 4 * up_channels
         inputs = channels

@@ -9,6 +9,8 @@ from collections import UserString
 from collections.abc import Callable
 from pathlib import Path
 
+from simgen.errors import UserError
+
 
 class LazyText(UserString):
     """Help text made only when shown (e.g. a list that needs heavy imports), so that `simgen --help`
@@ -20,8 +22,6 @@ class LazyText(UserString):
     @property
     def data(self) -> str:  # UserString's methods read `data`
         return self._make()
-
-from simgen.errors import UserError
 
 
 def add_command(subparsers, name: str, summary: str, description: str) -> argparse.ArgumentParser:

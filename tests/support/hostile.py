@@ -19,7 +19,7 @@ from hypothesis.strategies import SearchStrategy
 
 from tests.support import ROOT
 
-SETTINGS = dict(deadline=None, suppress_health_check=list(HealthCheck), database=None)
+SETTINGS = {"deadline": None, "suppress_health_check": list(HealthCheck), "database": None}
 MAX_SECONDS_EACH = 2.0  # CPU seconds of this process per refusal; a real process adds its start-up
 MAX_GROWTH_BYTES = 256 << 20  # peak memory of this process, over all the generated cases
 

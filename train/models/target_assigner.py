@@ -63,7 +63,7 @@ class AnchorTargetAssigner:
         self.dir_offset_rad = head.dir_offset_rad
         self.boxes = head.tracklet_boxes
         reach_m = 0.5 * (math.hypot(*head.anchor.size_m[:2]) + OBJECT_SPAN_M)
-        self._window = int(math.ceil(reach_m / grid.cell_m))
+        self._window = math.ceil(reach_m / grid.cell_m)
 
     def _candidates(self, centres_m: NDArray[np.float32]) -> NDArray[np.int64]:
         """Unique anchor indices in the cells round the given BEV centres (G, 2)."""
