@@ -67,7 +67,10 @@ def best_alternating(runs: list[Callable[[], None]]) -> list[float]:
 def write_npz(root: Path, frames) -> None:
     root.mkdir(parents=True, exist_ok=True)
     for frame in frames:
-        arrays = {**{f"scan_{k}": v for k, v in vars(frame.scan).items() if isinstance(v, np.ndarray)}, **vars(frame.labels)}
+        arrays = {
+            **{f"scan_{k}": v for k, v in vars(frame.scan).items() if isinstance(v, np.ndarray)},
+            **vars(frame.labels),
+        }
         np.savez_compressed(root / f"{frame.index:06d}.npz", **arrays)
 
 
@@ -84,7 +87,9 @@ def write_parquet_defaults(root: Path, frames) -> None:
     tables = {
         "frames": parquet.frames_table(frames[0].clip, [parquet.frame_row(frame) for frame in frames]),
         "points": pyarrow.concat_tables(parquet.points_table(frame) for frame in frames),
-        "boxes": parquet.boxes_table(frames[0].clip, [frame.index for frame in frames], [frame.labels for frame in frames]),
+        "boxes": parquet.boxes_table(
+            frames[0].clip, [frame.index for frame in frames], [frame.labels for frame in frames]
+        ),
         "sensors": parquet.sensors_table(sensors()),
     }
     for name, table in tables.items():
@@ -127,11 +132,15 @@ def measure(frames, work: Path) -> list[tuple[str, float, float, float, float]]:
     rows = []
     for index, (name, write, read, read_unchecked) in enumerate(cases):
         root = work / str(index)
-        write_s = best_seconds(functools.partial(write, root), functools.partial(shutil.rmtree, root, ignore_errors=True))
+        write_s = best_seconds(
+            functools.partial(write, root), functools.partial(shutil.rmtree, root, ignore_errors=True)
+        )
         if read_unchecked is read:
             read_s = unchecked_s = best_seconds(functools.partial(read, root), lambda: None)
         else:
-            read_s, unchecked_s = best_alternating([functools.partial(read, root), functools.partial(read_unchecked, root)])
+            read_s, unchecked_s = best_alternating(
+                [functools.partial(read, root), functools.partial(read_unchecked, root)]
+            )
         size = sum(p.stat().st_size for p in root.rglob("*") if p.is_file())
         rows.append((name, size / count, count / write_s, count / read_s, count / unchecked_s))
         print(f"{name}: {size / count:,.0f} B/frame, {count / write_s:,.1f} written, {count / read_s:,.1f} read "
@@ -167,8 +176,17 @@ def main() -> None:
         "intensity and the boxes. Our write includes hashing every file for the manifest and the dataset card; our "
         "read checks every file's sha256 (the default; the last columns: `verify=False`). The baselines do neither.",
         markdown_table(
-            ["format", "bytes/frame", "write frames/s", "read frames/s", "read, sha256 unchecked", "bytes vs baseline",
-             "write vs baseline", "read vs baseline", "unchecked read vs baseline"],
+            [
+                "format",
+                "bytes/frame",
+                "write frames/s",
+                "read frames/s",
+                "read, sha256 unchecked",
+                "bytes vs baseline",
+                "write vs baseline",
+                "read vs baseline",
+                "unchecked read vs baseline",
+            ],
             table,
         ),
         out=args.out,

@@ -35,8 +35,19 @@ MODELS = ("single", "early", "late")
 
 def make_dataset(folder: Path) -> str:
     out = folder / "paper_x1_12"
-    command = [sys.executable, "-m", "simgen.cli", "generate", str(ROOT / "scenarios" / "paper_x1.yaml"), "-o", str(out),
-               "--frames", "12", "--clips", "1"]
+    command = [
+        sys.executable,
+        "-m",
+        "simgen.cli",
+        "generate",
+        str(ROOT / "scenarios" / "paper_x1.yaml"),
+        "-o",
+        str(out),
+        "--frames",
+        "12",
+        "--clips",
+        "1",
+    ]
     subprocess.run(command, check=True, capture_output=True, cwd=ROOT)
     return str(out)
 
@@ -117,7 +128,10 @@ def main() -> int:
         "(320 x 320), backbone 4/6/6 layers of 8/16/32 channels, output 160 x 160 x 2 anchors. Data: one 12-frame clip of "
         "scenarios/paper_x1.yaml. Baseline `loading`: reading three frames through simgen.datasets, crop, pillar "
         f"indices and anchor targets in one process: {loading:.2f} samples/s.",
-        markdown_table(["model", "train samples/s", "vs loading", "vs single", "inference frames/s", "vs loading", "vs single"], rows),
+        markdown_table(
+            ["model", "train samples/s", "vs loading", "vs single", "inference frames/s", "vs loading", "vs single"],
+            rows,
+        ),
         out=args.out,
     )
     return 0

@@ -50,7 +50,19 @@ def _measured(command: list[str], report: Path) -> dict:
 
 def _generate(out: Path, frames: int, shard_frames: int = 0) -> tuple[float, float, int]:
     """Wall seconds, peak RSS (MiB) and minor page faults of one `simgen generate` process."""
-    command = [sys.executable, "-m", "simgen.cli", "generate", str(SCENARIO), "-o", str(out), "--clips", "1", "--frames", str(frames)]
+    command = [
+        sys.executable,
+        "-m",
+        "simgen.cli",
+        "generate",
+        str(SCENARIO),
+        "-o",
+        str(out),
+        "--clips",
+        "1",
+        "--frames",
+        str(frames),
+    ]
     command += ["--shard-frames", str(shard_frames)] if shard_frames else []
     started = time.perf_counter()
     usage = _measured(command, out.parent / f"usage-{frames}-{shard_frames}")
@@ -84,13 +96,22 @@ def _match_motion(clip, directory: Path) -> dict[str, float]:
     repeats = -(-MATCH_FRAMES * clip.capture_hz // (10 * clip.num_frames)) + 1  # 10 Hz frames
     frames = repeats * clip.num_frames
     match = dataclasses.replace(
-        clip, time_s=clip.time_s[0] + np.arange(frames) / clip.capture_hz, keypoints_m=np.tile(clip.keypoints_m, (repeats, 1, 1, 1)),
-        ball_m=np.tile(clip.ball_m, (repeats, 1)), engine_position_m=np.tile(clip.engine_position_m, (repeats, 1, 1)),
+        clip,
+        time_s=clip.time_s[0] + np.arange(frames) / clip.capture_hz,
+        keypoints_m=np.tile(clip.keypoints_m, (repeats, 1, 1, 1)),
+        ball_m=np.tile(clip.ball_m, (repeats, 1)),
+        engine_position_m=np.tile(clip.engine_position_m, (repeats, 1, 1)),
     )
-    paths = {"imports": "", "parquet": write_clip(match, directory / "match.parquet"), "arrays": write_clip_arrays(match, directory / "match")}
+    paths = {
+        "imports": "",
+        "parquet": write_clip(match, directory / "match.parquet"),
+        "arrays": write_clip_arrays(match, directory / "match"),
+    }
     peaks = {}
     for mode, path in paths.items():
-        usage = _measured([sys.executable, "-c", SHARD_POSES, mode, str(path), str(paths["arrays"])], directory / f"usage-{mode}")
+        usage = _measured(
+            [sys.executable, "-c", SHARD_POSES, mode, str(path), str(paths["arrays"])], directory / f"usage-{mode}"
+        )
         if usage["exit_code"] != 0:
             raise SystemExit(f"posing the match's motion ({mode}) failed")
         peaks[mode] = usage["peak_bytes"] / 2**20
@@ -119,7 +140,9 @@ def _capture_and_render(frames: int):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--frames", default="100,1000,6000", help="frames per clip, comma-separated (default 100,1000,6000)")
+    parser.add_argument(
+        "--frames", default="100,1000,6000", help="frames per clip, comma-separated (default 100,1000,6000)"
+    )
     parser.add_argument("--workers", type=int, default=2, help="workers of the projected whole-match run (default 2)")
     args = parser.parse_args()
     sizes = sorted(int(n) for n in args.frames.split(","))

@@ -117,8 +117,21 @@ def main() -> None:
         out = [[tracker.step(t) for t in tracklets]]
         metrics, strict, h = evaluate_tracking(truth, out), evaluate_tracking(truth, out, min_iou=0.5), hota(truth, out)
         b = metrics.best
-        score_rows.append([name, f"{metrics.samota:.4f}", f"{metrics.amota:.4f}", f"{metrics.amotp:.4f}", f"{b.mota:.4f}",
-                           f"{b.motp:.4f}", b.ids, b.frag, f"{strict.samota:.4f}", strict.best.ids, f"{h.hota:.4f}"])
+        score_rows.append(
+            [
+                name,
+                f"{metrics.samota:.4f}",
+                f"{metrics.amota:.4f}",
+                f"{metrics.amotp:.4f}",
+                f"{b.mota:.4f}",
+                f"{b.motp:.4f}",
+                b.ids,
+                b.frag,
+                f"{strict.samota:.4f}",
+                strict.best.ids,
+                f"{h.hota:.4f}",
+            ]
+        )
         print(row(score_rows[-1]), flush=True)
 
     write_results(
@@ -136,8 +149,10 @@ def main() -> None:
         markdown_table(["run", "frames/s", "ratio to AB3DMOT"], speed_rows),
         "Scores on the same clip (AB3DMOT's definitions, 3D IoU >= 0.25; the last three columns at 0.5 "
         "and HOTA): the paper's Table 2 ablation, every tracker of train/configs/tracking/.",
-        markdown_table(["tracker", "sAMOTA", "AMOTA", "AMOTP", "MOTA", "MOTP", "IDS", "FRAG", "sAMOTA@0.5", "IDS@0.5", "HOTA"],
-                       score_rows),
+        markdown_table(
+            ["tracker", "sAMOTA", "AMOTA", "AMOTP", "MOTA", "MOTP", "IDS", "FRAG", "sAMOTA@0.5", "IDS@0.5", "HOTA"],
+            score_rows,
+        ),
         out=args.out,
     )
 

@@ -96,7 +96,9 @@ def step_breakdown(config_path: Path, dataset: Path, steps: int, device: torch.d
     """Mean seconds per step of each phase, after two warm-up steps."""
     config = parse_config(yaml.safe_load(config_path.read_text()))
     model = build_detector(config).to(device).train()
-    samples = SampleSet(str(dataset), "train", config, draws=(steps + 2) * config.train.batch_size, assign=model.head.assigner)
+    samples = SampleSet(
+        str(dataset), "train", config, draws=(steps + 2) * config.train.batch_size, assign=model.head.assigner
+    )
     optimizer = torch.optim.AdamW(model.parameters(), lr=config.train.lr)
     batches = loader(samples, config.train.batch_size, 1, model.head.assigner.collate, pin_memory=device.type == "cuda")
     phases = {"waiting for data": 0.0, "forward": 0.0, "backward": 0.0, "optimiser": 0.0}
@@ -153,7 +155,9 @@ def paper_rate(name: str, dataset: Path, iterations: int, device: torch.device) 
         raw["train"]["batch_size"] = 2
     config = parse_config(raw)
     model = build_detector(config).to(device).train()
-    samples = SampleSet(str(dataset), "train", config, draws=(iterations + 1) * config.train.batch_size, assign=model.head.assigner)
+    samples = SampleSet(
+        str(dataset), "train", config, draws=(iterations + 1) * config.train.batch_size, assign=model.head.assigner
+    )
     optimizer = torch.optim.AdamW(model.parameters(), lr=config.train.lr)
     batches = loader(samples, config.train.batch_size, 0, model.head.assigner.collate)
     for step in range(iterations + 1):
@@ -197,11 +201,26 @@ def main() -> None:
                 print(f"{name}, round {round_}: {rates[name][-1]:.3f} samples/s", flush=True)
         for name, tree in trees.items():
             runs = scratch / "runs" / name
-            val[name] = child(tree, "train.cli", "eval", str(runs / "fit0" / "checkpoint.pt"), "--dataset", str(data[name]),
-                              "-o", str(runs / "eval"), "--quiet")
+            val[name] = child(
+                tree,
+                "train.cli",
+                "eval",
+                str(runs / "fit0" / "checkpoint.pt"),
+                "--dataset",
+                str(data[name]),
+                "-o",
+                str(runs / "eval"),
+                "--quiet",
+            )
         breakdown = {d.type: step_breakdown(configs["this tree"], data["this tree"], 10, d) for d in devices}
-        inference_s, ap_s, frames, per_frame = ap_seconds(scratch / "runs" / "this tree" / "fit0" / "checkpoint.pt", data["this tree"])
-        paper = {(m, d.type): paper_rate(m, data["this tree"], args.paper_iterations, d) for m in ("single", "late") for d in devices}
+        inference_s, ap_s, frames, per_frame = ap_seconds(
+            scratch / "runs" / "this tree" / "fit0" / "checkpoint.pt", data["this tree"]
+        )
+        paper = {
+            (m, d.type): paper_rate(m, data["this tree"], args.paper_iterations, d)
+            for m in ("single", "late")
+            for d in devices
+        }
     median = {name: statistics.median(r) for name, r in rates.items()}
     fit_rows = [[name, args.iterations, " / ".join(f"{r:.3f}" for r in rates[name]), f"{median[name]:.3f}",
                  f"{median[name] / median['baseline']:.2f}"] for name in trees]
@@ -209,7 +228,8 @@ def main() -> None:
     step_rows = [[phase] + [f"{1000 * breakdown[d.type][phase]:.0f}" for d in devices] for phase in breakdown["cpu"]]
     paper_rows = [[m] + [f"{paper[(m, d.type)]:.2f}" for d in devices] for m in ("single", "late")]
     write_results(
-        "train", "Training speed (benchmarks/bench_train.py)",
+        "train",
+        "Training speed (benchmarks/bench_train.py)",
         machine(torch=torch.__version__) + f" Baseline: revision {args.baseline}, same data, same work, alternating.",
         f"Compact late `fit` on paper_x1 (batch 2, one loader process, one torch thread), samples/s ({args.rounds} rounds):",
         markdown_table(["tree", "iterations", "each round", "median", "ratio"], fit_rows),

@@ -74,7 +74,9 @@ def fit(t_s: NDArray, dirs: NDArray) -> RisleyFit:
     start = t_s < t_s[0] + START_WINDOW_S
     best, best_cost = None, np.inf
     index0 = 1.5
-    for (line1, line2), flips in itertools.product(itertools.permutations(lines), itertools.product((0, 180), repeat=2)):
+    for (line1, line2), flips in itertools.product(
+        itertools.permutations(lines), itertools.product((0, 180), repeat=2)
+    ):
         wedges = [np.degrees(np.arcsin(amp)) / (index0 - 1.0) for _, amp, _ in (line1, line2)]
         rpms = [60.0 * hz for hz, _, _ in (line1, line2)]
         phases = [np.degrees(ph) + flip for (_, _, ph), flip in zip((line1, line2), flips)]

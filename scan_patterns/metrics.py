@@ -51,7 +51,12 @@ def _grid(fov: FieldOfView, cell_deg: float) -> tuple[NDArray[np.float64], int, 
     if np.ndim(fov) == 0:
         half = int(np.ceil(fov / 2.0 / cell_deg)) + 1  # grid of (2 half)^2 cells round the boresight
         centres = (np.arange(-half, half) + 0.5) * cell_deg
-        return np.zeros(2), half, (2 * half, 2 * half), (np.hypot(centres[:, None], centres[None, :]) <= fov / 2.0).ravel()
+        return (
+            np.zeros(2),
+            half,
+            (2 * half, 2 * half),
+            (np.hypot(centres[:, None], centres[None, :]) <= fov / 2.0).ravel(),
+        )
     az_lo, az_hi, el_lo, el_hi = fov
     size = (int(np.ceil((az_hi - az_lo) / cell_deg)), int(np.ceil((el_hi - el_lo) / cell_deg)))
     u = az_lo + (np.arange(size[0]) + 0.5) * cell_deg
@@ -190,7 +195,9 @@ class PatternComparison:
             for t, x, y in zip(self.times_s, ca, cb):
                 lines.append(f"| coverage {cell:g} deg cells, T = {t:g} s | {x:.2%} | {y:.2%} | {x - y:+.2%} |")
         for (r, off), x, y in zip(self.targets, *self.target_points):
-            lines.append(f"| points/frame on target at {r:g} m, {off:g} deg off-axis | {x:.2f} | {y:.2f} | {x - y:+.2f} |")
+            lines.append(
+                f"| points/frame on target at {r:g} m, {off:g} deg off-axis | {x:.2f} | {y:.2f} | {x - y:+.2f} |"
+            )
         for rho, x, y in zip(self.radial[0].off_axis_deg, self.radial[0].shots_per_sr_s, self.radial[1].shots_per_sr_s):
             lines.append(f"| shots/sr/s at {rho:g} deg off-axis | {x:.4g} | {y:.4g} | {x - y:+.3g} |")
         return "\n".join(lines)

@@ -98,7 +98,9 @@ def directions_exact(params: RisleyParams, t_s: NDArray[np.float64]) -> NDArray[
     return np.stack(trace(params, np.cos(th1), np.sin(th1), np.cos(th2), np.sin(th2)), axis=1)
 
 
-def directions(params: RisleyParams, t_s: NDArray[np.float64], clock: tuple[int, float] | None = None) -> NDArray[np.float32]:
+def directions(
+    params: RisleyParams, t_s: NDArray[np.float64], clock: tuple[int, float] | None = None
+) -> NDArray[np.float32]:
     """(N, 3) float32 unit directions, head frame: `trace` in a compiled loop, fast.
 
     The same optics as `trace`, expanded for prism 1's cone (x A, lateral B) and prism 2's wedge

@@ -55,7 +55,9 @@ class HeadSpec:
         if self.fov_box_deg is not None:
             box = tuple(float(v) for v in self.fov_box_deg)
             if len(box) != 4 or not (-180 <= box[0] < box[1] <= 180 and -90 <= box[2] < box[3] <= 90):
-                raise ValueError(f"fov_box_deg must be (azimuth min < max within +-180, elevation min < max within +-90), got {self.fov_box_deg}")
+                raise ValueError(
+                    f"fov_box_deg must be (azimuth min < max within +-180, elevation min < max within +-90), got {self.fov_box_deg}"
+                )
             object.__setattr__(self, "fov_box_deg", box)
         if isinstance(self.lasers, bool) or not isinstance(self.lasers, int) or not 1 <= self.lasers <= 255:
             raise ValueError(f"lasers must be a whole number in 1..255, got {self.lasers}")
@@ -96,7 +98,9 @@ class HeadSpec:
         params = {k: tuple(v) if isinstance(v, list) else v for k, v in self.params.items()}
         if self.pattern == "replay":
             if set(params) != {"file"}:
-                raise ValueError(f"replay takes one parameter, 'file' (an official name: {', '.join(OFFICIAL_FILES)}; or a path); got {sorted(params)}")
+                raise ValueError(
+                    f"replay takes one parameter, 'file' (an official name: {', '.join(OFFICIAL_FILES)}; or a path); got {sorted(params)}"
+                )
             return str(params["file"])
         base = MID40 if self.pattern == "risley" else RoseParams()
         names = {f.name for f in dataclasses.fields(base)}
@@ -235,11 +239,23 @@ for _spec in (
     SensorSpec("mid40-rose", (HeadSpec("rose"),), "Mid-40 field of view, the paper's polar rose"),
     SensorSpec("mid40-replay", (OFFICIAL_HEADS["mid40"],), "Livox's Mid-40 file, looped every 4 s"),
     SensorSpec("mid70-replay", (OFFICIAL_HEADS["mid70"],), "Livox's Mid-70 file (70.4 deg), looped every 4 s"),
-    SensorSpec("avia-replay", (OFFICIAL_HEADS["avia"],), "Livox's Avia table: 6 lasers, 240,000 shots/s, 70.4 x 77.2 deg"),
-    SensorSpec("horizon-replay", (OFFICIAL_HEADS["horizon"],), "Livox's Horizon table: 6 lasers, 240,000 shots/s, 81.7 x 25.1 deg"),
-    SensorSpec("tele15-replay", (OFFICIAL_HEADS["tele"],), "Livox's Tele-15 table: 6 lasers, 240,000 shots/s, 14.5 x 16.1 deg"),
-    SensorSpec("hap-replay", (OFFICIAL_HEADS["hap"],), "Livox's HAP table: 6 lasers, 452,000 shots/s, 120 x 25 deg, 2.32 s"),
-    SensorSpec("mid360-replay", (OFFICIAL_HEADS["mid360"],), "Livox's Mid-360 table: 4 lasers, 200,000 shots/s, 360 x 59 deg"),
+    SensorSpec(
+        "avia-replay", (OFFICIAL_HEADS["avia"],), "Livox's Avia table: 6 lasers, 240,000 shots/s, 70.4 x 77.2 deg"
+    ),
+    SensorSpec(
+        "horizon-replay",
+        (OFFICIAL_HEADS["horizon"],),
+        "Livox's Horizon table: 6 lasers, 240,000 shots/s, 81.7 x 25.1 deg",
+    ),
+    SensorSpec(
+        "tele15-replay", (OFFICIAL_HEADS["tele"],), "Livox's Tele-15 table: 6 lasers, 240,000 shots/s, 14.5 x 16.1 deg"
+    ),
+    SensorSpec(
+        "hap-replay", (OFFICIAL_HEADS["hap"],), "Livox's HAP table: 6 lasers, 452,000 shots/s, 120 x 25 deg, 2.32 s"
+    ),
+    SensorSpec(
+        "mid360-replay", (OFFICIAL_HEADS["mid360"],), "Livox's Mid-360 table: 4 lasers, 200,000 shots/s, 360 x 59 deg"
+    ),
     SensorSpec("mid100-risley", _mid100("risley"), "Mid-100: three Risley Mid-40 heads yawed -30, 0, +30 deg"),
     SensorSpec("mid100-rose", _mid100("rose"), "Mid-100 layout with the paper's rose in each head"),
 ):

@@ -61,7 +61,11 @@ def dispatch(prog: str, args: argparse.Namespace) -> int:
             raise
         filename = error.filename or getattr(args, "output", None)
         where = f"{filename}: " if filename else ""
-        hint = " (files written so far are whole; `generate --resume` finishes a run)" if args.command == "generate" else ""
+        hint = (
+            " (files written so far are whole; `generate --resume` finishes a run)"
+            if args.command == "generate"
+            else ""
+        )
         print(f"{prog} {args.command}: error: {where}{DISK_ERRORS[error.errno]}{hint}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

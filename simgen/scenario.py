@@ -72,7 +72,9 @@ class SceneConfig(_Strict):
 
     goals: bool = Field(True, description="Both goals: posts, crossbar and net.")
     net_transmission: float = Field(0.7, ge=0.0, le=1.0, description="Fraction of rays a goal net lets through.")
-    surroundings: bool = Field(False, description="Advertising boards round the pitch and a stand behind the far touchline.")
+    surroundings: bool = Field(
+        False, description="Advertising boards round the pitch and a stand behind the far touchline."
+    )
 
 
 class SensorPose(_Strict):
@@ -100,10 +102,15 @@ class ScanConfig(_Strict):
 
     frame_rate_hz: float = Field(10.0, gt=0.0, le=100.0, description="Frames per second.")
     density: float = Field(1.0, gt=0.0, le=64.0, description="Shots per second as a multiple of the real sensor's.")
-    sweeps_per_frame: int = Field(1, ge=1, le=16, description="Sweeps merged into one frame (the paper: two 20 Hz sweeps).")
-    frames: int | None = Field(None, ge=1, le=1_000_000, description="Frames per clip (default: as many as the motion allows).")
+    sweeps_per_frame: int = Field(
+        1, ge=1, le=16, description="Sweeps merged into one frame (the paper: two 20 Hz sweeps)."
+    )
+    frames: int | None = Field(
+        None, ge=1, le=1_000_000, description="Frames per clip (default: as many as the motion allows)."
+    )
     timing: Literal["sweep", "snapshot"] = Field(
-        "sweep", description="sweep: each shot meets the scene at its own time, as a real Livox scans (fast players smear); "
+        "sweep",
+        description="sweep: each shot meets the scene at its own time, as a real Livox scans (fast players smear); "
         "snapshot: every shot of a frame meets the scene as it is at the frame's label time (the paper samples the "
         "engine's depth map once per frame), and every point carries that time.",
     )
@@ -141,7 +148,9 @@ class NoiseConfig(_Strict):
     """The sensor's imperfections (section `noise`; used by simgen.render.noise). Defaults: the Livox Mid-40 datasheet."""
 
     range_sigma_m: float = Field(0.02, ge=0, le=1, description="Gaussian range noise, 1 sigma, metres.")
-    angle_sigma_deg: float = Field(0.03, ge=0, le=1, description="Gaussian direction noise per axis across the beam, 1 sigma, degrees.")
+    angle_sigma_deg: float = Field(
+        0.03, ge=0, le=1, description="Gaussian direction noise per axis across the beam, 1 sigma, degrees."
+    )
     divergence_deg: tuple[Annotated[float, Field(ge=0, le=10)], Annotated[float, Field(ge=0, le=10)]] = Field(
         (0.03, 0.28), description="Full beam divergence (horizontal, vertical), degrees."
     )
@@ -153,7 +162,9 @@ class NoiseConfig(_Strict):
         90.0, gt=0, le=1000, description="Detection range at 10 % reflectivity; it grows as sqrt(reflectivity), metres."
     )
     dropout: float = Field(0.0, ge=0, lt=1, description="Probability that a return is lost at random.")
-    enabled: bool = Field(True, description="False: exact ranges and directions, no dropout (range limits still apply).")
+    enabled: bool = Field(
+        True, description="False: exact ranges and directions, no dropout (range limits still apply)."
+    )
 
     @model_validator(mode="after")
     def _ranges_ordered(self) -> NoiseConfig:
@@ -169,7 +180,9 @@ class RisleyParamsConfig(_Strict):
 
     wedge_deg: tuple[Annotated[float, Field(gt=0, lt=45)], Annotated[float, Field(gt=0, lt=45)]] | None = None
     index: float | None = Field(None, gt=1.0, le=4.0, description="Refractive index of both prisms.")
-    rpm: tuple[Annotated[float, Field(ge=-100_000, le=100_000)], Annotated[float, Field(ge=-100_000, le=100_000)]] | None = None
+    rpm: (
+        tuple[Annotated[float, Field(ge=-100_000, le=100_000)], Annotated[float, Field(ge=-100_000, le=100_000)]] | None
+    ) = None
     phase_deg: tuple[Annotated[float, Field(ge=-360, le=360)], Annotated[float, Field(ge=-360, le=360)]] | None = None
 
 
@@ -200,7 +213,9 @@ class ReplayParamsConfig(_Strict):
             raise ValueError(f"replay file '{file}': a relative path needs the scenario file's folder")
         resolved = (Path(base) / path if base is not None else path).resolve()
         if base is not None:  # read from a scenario file: only its folder and the listed ones
-            allowed = [Path(base).resolve()] + [Path(d).resolve() for d in os.environ.get(PATTERN_DIRS_ENV, "").split(":") if d]
+            allowed = [Path(base).resolve()] + [
+                Path(d).resolve() for d in os.environ.get(PATTERN_DIRS_ENV, "").split(":") if d
+            ]
             if not any(resolved == root or root in resolved.parents for root in allowed):
                 raise ValueError(f"replay file '{file}' is outside the scenario's folder and ${PATTERN_DIRS_ENV}")
         if not resolved.is_file():
@@ -223,7 +238,9 @@ class HeadConfig(_Strict):
     yaw_deg: float | None = Field(None, ge=-360, le=360)
     pitch_deg: float | None = Field(None, ge=-90, le=90)
     time_offset_s: float | None = Field(None, ge=0, le=1e6, description="How far ahead the head's pattern clock runs.")
-    lasers: int | None = Field(None, ge=1, le=255, description="Lasers taking turns: shot k fires laser (k - 1) mod lasers.")
+    lasers: int | None = Field(
+        None, ge=1, le=255, description="Lasers taking turns: shot k fires laser (k - 1) mod lasers."
+    )
 
     @field_validator("like")
     @classmethod
@@ -325,7 +342,9 @@ class Scenario(_Strict):
         known = set(scan_patterns.sensor_names()) | {sensor.name for sensor in self.custom_sensors}
         for i, sensor in enumerate(self.sensors):
             if sensor.preset not in known:
-                raise ValueError(f"sensors.{i}.preset: unknown sensor preset '{sensor.preset}' (known: {', '.join(sorted(known))})")
+                raise ValueError(
+                    f"sensors.{i}.preset: unknown sensor preset '{sensor.preset}' (known: {', '.join(sorted(known))})"
+                )
         return self
 
     @model_validator(mode="after")

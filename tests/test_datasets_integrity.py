@@ -81,7 +81,9 @@ def test_manifest_missing_malformed_or_foreign(tmp_path):
     with pytest.raises(UserError, match=r"manifest\.json: not a readable manifest"):
         simgen.datasets.open(tmp_path)
     (tmp_path / MANIFEST_NAME).write_text(json.dumps({"schema_version": SCHEMA_VERSION + 1, "format": "parquet"}))
-    with pytest.raises(UserError, match=f"dataset schema version {SCHEMA_VERSION + 1}, this simgen reads {SCHEMA_VERSION}"):
+    with pytest.raises(
+        UserError, match=f"dataset schema version {SCHEMA_VERSION + 1}, this simgen reads {SCHEMA_VERSION}"
+    ):
         simgen.datasets.open(tmp_path)
     with pytest.raises(UserError, match="no such dataset directory"):
         simgen.datasets.open(tmp_path / "nowhere")

@@ -261,7 +261,11 @@ def test_the_ground_truth_starts_a_new_identity_at_a_placement():
     from train.study import truth_frames
 
     def sample(t: int, placed: list[bool]) -> Sample:
-        return Sample("c", t, (), np.zeros((2, 3, 7), np.float32), np.ones((2, 3), bool), np.array([4, 9]), np.array(placed))
+        return Sample(
+            "c", t, (), np.zeros((2, 3, 7), np.float32), np.ones((2, 3), bool), np.array([4, 9]), np.array(placed)
+        )
 
-    frames = truth_frames([sample(2, [False, False]), sample(3, [True, False]), sample(4, [False, False]), sample(5, [True, True])])
+    frames = truth_frames(
+        [sample(2, [False, False]), sample(3, [True, False]), sample(4, [False, False]), sample(5, [True, True])]
+    )
     assert [f.ids.tolist() for f in frames] == [[0, 1], [2, 1], [2, 1], [3, 4]]

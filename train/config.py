@@ -132,7 +132,9 @@ class Backbone2dConfig(_Strict):
             total *= stride
             sizes.append(total / up)
         if len(set(sizes)) != 1 or sizes[0] != int(sizes[0]):
-            raise ValueError("'model.backbone_2d': every block must upsample to the same size (strides / upsample_strides)")
+            raise ValueError(
+                "'model.backbone_2d': every block must upsample to the same size (strides / upsample_strides)"
+            )
         return self
 
 
@@ -173,7 +175,8 @@ Size = Annotated[float, Field(gt=0.0, le=20.0)]  # no object on a pitch is 20 m 
 class AnchorConfig(_Strict):
     size_m: tuple[Size, Size, Size] = (0.8, 0.8, 1.7)  # length, width, height
     z_m: Coordinate = 0.85  # centre height
-    yaws_rad: tuple[Angle, ...] = Field((0.0, 1.5708), min_length=1, max_length=MAX_ANCHORS_PER_CELL)  # anchors per cell
+    # anchors per cell
+    yaws_rad: tuple[Angle, ...] = Field((0.0, 1.5708), min_length=1, max_length=MAX_ANCHORS_PER_CELL)
     match_iou: float = Field(0.5, gt=0.0, le=1.0)  # BEV IoU with the box at t: positive at or above
     unmatch_iou: float = Field(0.35, ge=0.0, le=1.0)  # negative below; ignored between
 
@@ -233,7 +236,8 @@ class TrainConfig(_Strict):
     workers: int = Field(2, ge=0, le=MAX_WORKERS)
     checkpoint_every: int = Field(500, ge=1, le=MAX_ITERATIONS)
     log_every: int = Field(10, ge=1, le=MAX_ITERATIONS)
-    eval_every: int = Field(0, ge=0, le=MAX_ITERATIONS)  # learning curve: AP on the val clips every this many iterations (0: none)
+    # learning curve: AP on the val clips every this many iterations (0: none)
+    eval_every: int = Field(0, ge=0, le=MAX_ITERATIONS)
     bf16: Literal["auto", "on", "off"] = "auto"  # bfloat16 autocast; auto: on CUDA only
 
 
@@ -261,17 +265,25 @@ class DetectorConfig(_Strict):
         rows, cols = (y1 - y0) / size, (x1 - x0) / size
         if rows * cols > MAX_GRID_CELLS:
             finest = ((x1 - x0) * (y1 - y0) / MAX_GRID_CELLS) ** 0.5
-            raise ValueError(f"'data.pillar_size_m': {size:g} m makes a {rows:,.0f} x {cols:,.0f} pillar grid (range / pillar "
-                             f"size); at most {MAX_GRID_CELLS:,} pillars, so at least {finest:.6g} m for this point_range_m")
+            raise ValueError(
+                f"'data.pillar_size_m': {size:g} m makes a {rows:,.0f} x {cols:,.0f} pillar grid (range / pillar "
+                f"size); at most {MAX_GRID_CELLS:,} pillars, so at least {finest:.6g} m for this point_range_m"
+            )
         anchor, infer = self.model.head.anchor, self.infer
         if self.anchors > MAX_ANCHORS:
-            raise ValueError(f"'model.head.anchor.yaws_rad': {self.anchors:,} anchors ({len(anchor.yaws_rad)} per output cell); "
-                             f"at most {MAX_ANCHORS:,}")
+            raise ValueError(
+                f"'model.head.anchor.yaws_rad': {self.anchors:,} anchors ({len(anchor.yaws_rad)} per output cell); "
+                f"at most {MAX_ANCHORS:,}"
+            )
         if anchor.unmatch_iou > anchor.match_iou:
-            raise ValueError(f"'model.head.anchor.unmatch_iou': {anchor.unmatch_iou:g} is above match_iou {anchor.match_iou:g}")
+            raise ValueError(
+                f"'model.head.anchor.unmatch_iou': {anchor.unmatch_iou:g} is above match_iou {anchor.match_iou:g}"
+            )
         if infer.max_detections > infer.pre_nms:
-            raise ValueError(f"'infer.max_detections': {infer.max_detections} is more than the {infer.pre_nms} boxes NMS sees "
-                             f"(infer.pre_nms)")
+            raise ValueError(
+                f"'infer.max_detections': {infer.max_detections} is more than the {infer.pre_nms} boxes NMS sees "
+                f"(infer.pre_nms)"
+            )
         return self
 
     @model_validator(mode="after")
@@ -282,7 +294,9 @@ class DetectorConfig(_Strict):
         cells, strides = self.data.grid_size, self.model.backbone_2d.strides
         stride = strides[0] * strides[1] * strides[2]
         if any(c % stride for c in cells):
-            raise ValueError(f"'model.backbone_2d.strides': the {cells[0]}x{cells[1]} pillar grid must divide by {stride}")
+            raise ValueError(
+                f"'model.backbone_2d.strides': the {cells[0]}x{cells[1]} pillar grid must divide by {stride}"
+            )
         return self
 
     @property

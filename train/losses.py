@@ -53,7 +53,9 @@ def detection_loss(output: HeadOutput, targets: BatchTargets, config: LossConfig
     positives = max(len(targets.positives), 1)  # a shape, known on the host: no device synchronisation
     scores = output.scores.reshape(-1)
     cared = (labels >= 0).to(scores.dtype)  # weights, not a boolean index (which would synchronise)
-    cls = (focal_loss(scores, (labels == 1).to(scores.dtype), config.focal_alpha, config.focal_gamma) * cared).sum() / positives
+    cls = (
+        focal_loss(scores, (labels == 1).to(scores.dtype), config.focal_alpha, config.focal_gamma) * cared
+    ).sum() / positives
 
     boxes = output.deltas.shape[2]
     pred = output.deltas.reshape(-1, boxes, 7)[targets.positives]

@@ -72,7 +72,11 @@ def _ap(rows, kind: str, points: int = 40, truth_set: str = "all", threshold: fl
 
 def table1_markdown(result: StudyResult, command: str) -> str:
     density = result.dataset.scenario.scan.density
-    lines = [f"# Table 1 on `{result.dataset.scenario.name}`: detection of the boxes at t", "", *header(result, command)]
+    lines = [
+        f"# Table 1 on `{result.dataset.scenario.name}`: detection of the boxes at t",
+        "",
+        *header(result, command),
+    ]
     lines += [
         "AP in percent on the val clips by KITTI's official rule (train.metrics.detection), IoU 0.5, 40 recall "
         "points (11 in the R11 columns), on two sets of labelled boxes: *all* of them (as the paper) and the "
@@ -89,9 +93,12 @@ def table1_markdown(result: StudyResult, command: str) -> str:
         seen = next((row.truth for row in r.rows if row.box == "t" and row.truth_set == "visible"), None)
         cells = [_ap(r.rows, kind, points, truth_set) for truth_set in ("all", "visible") for points in (40, 11)
                  for kind in ("bev", "3d")]
-        lines.append(f"| {LABELS[r.model]} (x{density:g}) | " + " | ".join(cells)
-                     + f" | {_number(paper[0])} | {_number(paper[1])} | {t.truth} ({seen if seen is not None else '–'}) "
-                     f"| {t.detections} |")
+        lines.append(
+            f"| {LABELS[r.model]} (x{density:g}) | "
+            + " | ".join(cells)
+            + f" | {_number(paper[0])} | {_number(paper[1])} | {t.truth} ({seen if seen is not None else '–'}) "
+            f"| {t.detections} |"
+        )
     lines += [
         "", "## Centre-distance AP (beyond the paper)", "",
         "A detection matches a labelled box whose centre is within d metres on the pitch plane (no size or heading), "
@@ -102,7 +109,9 @@ def table1_markdown(result: StudyResult, command: str) -> str:
         "| --- |" + " ---: |" * (2 * len(CENTRE_THRESHOLDS_M)),
     ]
     for r in result.detectors:
-        cells = [_ap(r.rows, "centre", 40, truth_set, d) for truth_set in ("all", "visible") for d in CENTRE_THRESHOLDS_M]
+        cells = [
+            _ap(r.rows, "centre", 40, truth_set, d) for truth_set in ("all", "visible") for d in CENTRE_THRESHOLDS_M
+        ]
         lines.append(f"| {LABELS[r.model]} (x{density:g}) | " + " | ".join(cells) + " |")
     lines += [
         "", "## Where the 3D AP goes (TIDE's idea for 3D boxes)", "",
@@ -124,7 +133,8 @@ def table1_markdown(result: StudyResult, command: str) -> str:
     late = next((r for r in result.detectors if r.model == "late"), None)
     if late is not None:
         past = "; ".join(
-            f"{box}: BEV {mean_ap(late.rows, 'bev', box=box):.2f}, 3D {mean_ap(late.rows, '3d', box=box):.2f}" for box in ("t-1", "t-2")
+            f"{box}: BEV {mean_ap(late.rows, 'bev', box=box):.2f}, 3D {mean_ap(late.rows, '3d', box=box):.2f}"
+            for box in ("t-1", "t-2")
         )
         lines += ["", f"Late fusion's earlier tracklet boxes (AP R40, all boxes): {past}."]
     return "\n".join(lines) + "\n"
@@ -146,10 +156,22 @@ def _tracker_values(r: TrackerResult) -> tuple:
 
 def table2_markdown(result: StudyResult, command: str) -> str:
     filters = result.filters
-    lines = [f"# Table 2 on `{result.dataset.scenario.name}`: tracking the late model's tracklets", "", *header(result, command)]
+    lines = [
+        f"# Table 2 on `{result.dataset.scenario.name}`: tracking the late model's tracklets",
+        "",
+        *header(result, command),
+    ]
     if not filters:
-        return "\n".join(lines + ["Not run: with the frame split the val windows are scattered over the clips, so there is "
-                                  "no contiguous val sequence to track (Table 2 needs the clip split)."]) + "\n"
+        return (
+            "\n".join(
+                lines
+                + [
+                    "Not run: with the frame split the val windows are scattered over the clips, so there is "
+                    "no contiguous val sequence to track (Table 2 needs the clip split)."
+                ]
+            )
+            + "\n"
+        )
     first = next(iter(filters.values()))
     lines += [
         "AB3DMOT's metrics (train.metrics.tracking) on the val clips against the labelled boxes and track ids; "
@@ -195,12 +217,46 @@ def _csv(rows: list[list[object]]) -> str:
 
 
 def table1_csv(result: StudyResult) -> str:
-    rows: list[list[object]] = [["model", "truth_set", "box", "iou", "threshold", "recall_points", "ap", "truth", "detections",
-                                 "iterations", "batch_size", "seed", "checkpoint_reused", "fit_s", "eval_s"]]
+    rows: list[list[object]] = [
+        [
+            "model",
+            "truth_set",
+            "box",
+            "iou",
+            "threshold",
+            "recall_points",
+            "ap",
+            "truth",
+            "detections",
+            "iterations",
+            "batch_size",
+            "seed",
+            "checkpoint_reused",
+            "fit_s",
+            "eval_s",
+        ]
+    ]
     for r in result.detectors:
-        rows += [[r.model, a.truth_set, a.box, a.iou, a.threshold, a.recall_points, f"{a.ap:.2f}", a.truth, a.detections,
-                  r.config.train.iterations, r.config.train.batch_size, r.config.seed, r.reused, f"{r.fit_s:.1f}",
-                  f"{r.eval_s:.1f}"] for a in r.rows]
+        rows += [
+            [
+                r.model,
+                a.truth_set,
+                a.box,
+                a.iou,
+                a.threshold,
+                a.recall_points,
+                f"{a.ap:.2f}",
+                a.truth,
+                a.detections,
+                r.config.train.iterations,
+                r.config.train.batch_size,
+                r.config.seed,
+                r.reused,
+                f"{r.fit_s:.1f}",
+                f"{r.eval_s:.1f}",
+            ]
+            for a in r.rows
+        ]
     return _csv(rows)
 
 

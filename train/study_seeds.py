@@ -48,9 +48,13 @@ def table1_seeds(results: Sequence[StudyResult], seeds: Sequence[int], command: 
              "| Method | 3D | BEV | 3D per seed | BEV per seed | paper 3D |", "| --- |" + " ---: |" * 5]
     for m in models:
         paper = PAPER_TABLE1.get((m, density), (None, None))[1]
-        lines.append(f"| {LABELS[m]} (x{density:g}) | {_spread(ap[(m, '3d')])} | {_spread(ap[(m, 'bev')])} | "
-                     + " / ".join(f"{v:.2f}" for v in ap[(m, "3d")]) + " | " + " / ".join(f"{v:.2f}" for v in ap[(m, "bev")])
-                     + f" | {'–' if paper is None else f'{paper:.2f}'} |")
+        lines.append(
+            f"| {LABELS[m]} (x{density:g}) | {_spread(ap[(m, '3d')])} | {_spread(ap[(m, 'bev')])} | "
+            + " / ".join(f"{v:.2f}" for v in ap[(m, "3d")])
+            + " | "
+            + " / ".join(f"{v:.2f}" for v in ap[(m, "bev")])
+            + f" | {'–' if paper is None else f'{paper:.2f}'} |"
+        )
     order = [m for m in TABLE1_ORDER if m in models]
     lines += ["", "The paper's order (3D AP):", ""]
     lines += [_ordering(LABELS[a], ap[(a, "3d")], LABELS[b], ap[(b, "3d")]) for a, b in zip(order, order[1:])]
@@ -64,8 +68,14 @@ def table2_seeds(results: Sequence[StudyResult], seeds: Sequence[int], command: 
     if any(not r.filters for r in results):
         return "\n".join(lines + ["Not run: the frame split has no contiguous val sequence to track."]) + "\n"
     trackers = [t.tracker for t in results[0].trackers if t.filtered and t.min_iou == TRACKING_IOU]
-    samota = {t: [100 * next(x for x in r.trackers if x.tracker == t and x.filtered and x.min_iou == TRACKING_IOU).metrics.samota
-                  for r in results] for t in trackers}
+    samota = {
+        t: [
+            100
+            * next(x for x in r.trackers if x.tracker == t and x.filtered and x.min_iou == TRACKING_IOU).metrics.samota
+            for r in results
+        ]
+        for t in trackers
+    }
     lines += ["sAMOTA in percent, 3D IoU >= 0.25, tracklets filtered by each tracker's own rule (chosen on each "
               "seed's train clips); each seed's own tables are in `seed_<seed>/`.", "",
               "| Method | sAMOTA | per seed | paper |", "| --- | ---: | ---: | ---: |"]

@@ -31,4 +31,6 @@ def local_pool(workers: int, progress: Progress) -> Iterator[Executor]:
     with context.Manager() as manager:
         queue = manager.Queue()
         with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            yield Executor(workers, lambda job: pool.submit(run_job_reporting, job, queue), lambda: forward(queue, progress))
+            yield Executor(
+                workers, lambda job: pool.submit(run_job_reporting, job, queue), lambda: forward(queue, progress)
+            )

@@ -64,7 +64,9 @@ def _worst(mine: NDArray, reference: NDArray, relative: bool) -> tuple[int, floa
     return i, float(diff[i])
 
 
-def pattern_checks(subject: str, head: sp.HeadSpec, reference: str, c: sp.PatternComparison, tol: PatternTolerances) -> list[Check]:
+def pattern_checks(
+    subject: str, head: sp.HeadSpec, reference: str, c: sp.PatternComparison, tol: PatternTolerances
+) -> list[Check]:
     """Shot rate, coverage per cell size, radial density and target points against the tolerances.
 
     `measured` gives the largest difference, signed (head minus official), where it is, and both values.

@@ -277,7 +277,9 @@ def make_tracklets(clip: PlayersClip, noise: DetectionNoise, rng: np.random.Gene
     return out
 
 
-def _near_duplicates(boxes: NDArray[np.float64], noise: DetectionNoise, rng: np.random.Generator) -> NDArray[np.float64]:
+def _near_duplicates(
+    boxes: NDArray[np.float64], noise: DetectionNoise, rng: np.random.Generator
+) -> NDArray[np.float64]:
     """Copies of tracklets (N, 3, 7), a Poisson number each, moved a uniform distance in a uniform direction."""
     near = np.repeat(boxes, rng.poisson(noise.near_duplicates, len(boxes)), axis=0)
     away = rng.uniform(*noise.near_distance_m, len(near))

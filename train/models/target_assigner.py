@@ -82,7 +82,9 @@ class AnchorTargetAssigner:
         labels = np.zeros(len(anchors), np.int8)
         if len(boxes) == 0:
             none = np.zeros(0, np.int64)
-            return Targets(labels, none, np.zeros((0, self.boxes, 7), np.float32), np.zeros((0, self.boxes), bool), none)
+            return Targets(
+                labels, none, np.zeros((0, self.boxes, 7), np.float32), np.zeros((0, self.boxes), bool), none
+            )
         current = boxes[:, -1]
         candidates = self._candidates(current[:, :2])
         iou = bev_iou(anchors[candidates], current)  # (M, G)

@@ -56,7 +56,8 @@ class AssociationConfig(_Strict):
 class LifeCycleConfig(_Strict):
     birth_death: bool  # off (tracklet_diou only): every tracklet output at once, a miss ends a track
     min_hits: int = Field(3, ge=1, le=MAX_TRACK_FRAMES)  # matches before a new track is output
-    max_misses: int = Field(6, ge=0, le=MAX_TRACK_FRAMES)  # consecutive misses a confirmed track survives (dying frames)
+    # consecutive misses a confirmed track survives (dying frames)
+    max_misses: int = Field(6, ge=0, le=MAX_TRACK_FRAMES)
     backfill: bool = False  # tracklet_diou: a confirmed track's first frames output from its tracklet
     output_dying: bool = True  # tracklet_diou: dying tracks output at their predicted box
 
