@@ -172,8 +172,8 @@ def main() -> None:
         "Baselines, holding the same fields as our Parquet: every array of the frame (points and labels) in one "
         "`numpy.savez_compressed` per frame (the ratios are against it), and our Parquet tables written with "
         "pyarrow's defaults (`pq.write_table`: snappy, dictionary, plain floats; read with `pq.read_table`). Ours, "
-        "`parquet`: zstd, byte-stream-split floats, points in row groups of 10 frames; KITTI and OpenPCDet hold x, y, z, "
-        "intensity and the boxes. Our write includes hashing every file for the manifest and the dataset card; our "
+        "`parquet`: zstd, byte-stream-split floats, points in row groups of 10 frames; KITTI and OpenPCDet hold x, y, "
+        "z, intensity and the boxes. Our write includes hashing every file for the manifest and the dataset card; our "
         "read checks every file's sha256 (the default; the last columns: `verify=False`). The baselines do neither.",
         markdown_table(
             [

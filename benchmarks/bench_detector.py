@@ -124,9 +124,10 @@ def main() -> int:
         "Detector throughput on CPU",
         f"Written by `benchmarks/bench_detector.py --steps {args.steps} --frames {args.frames}`; "
         f"{torch.get_num_threads()} torch threads. " + machine(torch=torch.__version__),
-        "Configs as committed (train/configs/): the paper's range [-40, 40] x [-40, 40] x [-0.1, 2.5] m, 0.25 m pillars "
-        "(320 x 320), backbone 4/6/6 layers of 8/16/32 channels, output 160 x 160 x 2 anchors. Data: one 12-frame clip of "
-        "scenarios/paper_x1.yaml. Baseline `loading`: reading three frames through simgen.datasets, crop, pillar "
+        "Configs as committed (train/configs/): the paper's range [-40, 40] x [-40, 40] x [-0.1, 2.5] m, 0.25 m "
+        "pillars "
+        "(320 x 320), backbone 4/6/6 layers of 8/16/32 channels, output 160 x 160 x 2 anchors. Data: one 12-frame clip "
+        "of scenarios/paper_x1.yaml. Baseline `loading`: reading three frames through simgen.datasets, crop, pillar "
         f"indices and anchor targets in one process: {loading:.2f} samples/s.",
         markdown_table(
             ["model", "train samples/s", "vs loading", "vs single", "inference frames/s", "vs loading", "vs single"],

@@ -126,7 +126,8 @@ def main() -> None:
         f"`simgen generate scenarios/paper_x1.yaml --clips {args.clips} --frames {args.frames}` end to end "
         "(engine capture at 100 Hz, Mid-100 rendering with bodies posed per 10 ms slice, noise, intensity, labels, "
         "Parquet, manifest) against the loop a user would write with the same libraries for the same frames, run "
-        "as its own process like ours (start-up counted for both): the same engine capture, then per frame an Open3D scene of the ground, static meshes and bodies posed at "
+        "as its own process like ours (start-up counted for both): the same engine capture, then per frame an Open3D "
+        "scene of the ground, static meshes and bodies posed at "
         "mid-frame, the frame's rays cast on one thread, x, y, z and the mesh hit written to one Parquet file per "
         "frame (less work than ours: one pose per frame, no noise, intensity, labels or manifest). "
         + machine(numpy=np.__version__),

@@ -112,7 +112,8 @@ def main() -> None:
             ],
             rows,
         ),
-        f"{args.frames} frames of the default scenario (its whole clip) per measure, best of {args.repeats} interleaved measures of each (2 cores: "
+        f"{args.frames} frames of the default scenario (its whole clip) per measure, best of {args.repeats} "
+        f"interleaved measures of each (2 cores: "
         "two clips, one per process, once). Ours is end to end (shots, posing per 10 ms "
         "slice, casting, noise, labels); the bare cast is Open3D's RaycastingScene casting the same rays on one "
         "thread against the scene frozen at mid-frame (BVH built beforehand, not timed). Including the first "

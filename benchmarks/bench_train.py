@@ -231,10 +231,11 @@ def main() -> None:
         "train",
         "Training speed (benchmarks/bench_train.py)",
         machine(torch=torch.__version__) + f" Baseline: revision {args.baseline}, same data, same work, alternating.",
-        f"Compact late `fit` on paper_x1 (batch 2, one loader process, one torch thread), samples/s ({args.rounds} rounds):",
+        f"Compact late `fit` on paper_x1 (batch 2, one loader process, one torch thread), samples/s ({args.rounds} "
+        f"rounds):",
         markdown_table(["tree", "iterations", "each round", "median", "ratio"], fit_rows),
-        "Val pass, `simgen-train eval` of that checkpoint on the 203 val frames (inference, AP of all and visible boxes at "
-        "t, t-1, t-2, files), CPU seconds of the process:",
+        "Val pass, `simgen-train eval` of that checkpoint on the 203 val frames (inference, AP of all and visible "
+        "boxes at t, t-1, t-2, files), CPU seconds of the process:",
         markdown_table(["tree", "CPU s", "ratio"], val_rows),
         f"This tree's val pass in-process: inference {inference_s:.1f} CPU s, AP {ap_s:.2f} CPU s for {frames} frames "
         f"({per_frame:.0f} detections per frame).",

@@ -119,7 +119,8 @@ def write(rows: list, args: argparse.Namespace, results: Path, device: torch.dev
         delta = f"{ap['3d', 40] - ref:+.2f}" if ref is not None else "–"
         paper = PAPER[model, density]
         lines.append(
-            f"| {LABELS[model]} (×{density[1]}) | {ap['bev', 40]:.2f} ({ap['bev', 11]:.2f}) | {ap['3d', 40]:.2f} ({ap['3d', 11]:.2f}) "
+            f"| {LABELS[model]} (×{density[1]}) | {ap['bev', 40]:.2f} ({ap['bev', 11]:.2f}) | {ap['3d', 40]:.2f} "
+            f"({ap['3d', 11]:.2f}) "
             f"| {delta} | {paper[0]:.2f} | {paper[1]:.2f} | {sps:.2f} |"
         )
     lines += ["", f"Ground-truth boxes at t in the val clip: {rows[-1][3]}."]

@@ -56,7 +56,8 @@ class HeadSpec:
             box = tuple(float(v) for v in self.fov_box_deg)
             if len(box) != 4 or not (-180 <= box[0] < box[1] <= 180 and -90 <= box[2] < box[3] <= 90):
                 raise ValueError(
-                    f"fov_box_deg must be (azimuth min < max within +-180, elevation min < max within +-90), got {self.fov_box_deg}"
+                    f"fov_box_deg must be (azimuth min < max within +-180, elevation min < max within +-90), got "
+                    f"{self.fov_box_deg}"
                 )
             object.__setattr__(self, "fov_box_deg", box)
         if isinstance(self.lasers, bool) or not isinstance(self.lasers, int) or not 1 <= self.lasers <= 255:
@@ -99,7 +100,8 @@ class HeadSpec:
         if self.pattern == "replay":
             if set(params) != {"file"}:
                 raise ValueError(
-                    f"replay takes one parameter, 'file' (an official name: {', '.join(OFFICIAL_FILES)}; or a path); got {sorted(params)}"
+                    f"replay takes one parameter, 'file' (an official name: {', '.join(OFFICIAL_FILES)}; or a path); "
+                    f"got {sorted(params)}"
                 )
             return str(params["file"])
         base = MID40 if self.pattern == "risley" else RoseParams()

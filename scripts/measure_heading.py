@@ -70,7 +70,8 @@ def main() -> None:
         return "median {:.1f}, p90 {:.1f}, p99 {:.1f}".format(*np.percentile(values, [50, 90, 99]))
 
     print(
-        f"{scenario.name} clip {args.clip}: {count} players, {frames} frames at {clip.capture_hz} Hz; one scan frame = {scan} steps"
+        f"{scenario.name} clip {args.clip}: {count} players, {frames} frames at {clip.capture_hz} Hz; one scan frame = "
+        f"{scan} steps"
     )
     print(f"heading change per scan frame, degrees: {pct(change)}")
     print(f"the {WINDOW_S:g} s average's change per scan frame: {pct(smooth_change)}")

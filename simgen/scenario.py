@@ -357,14 +357,16 @@ class Scenario(_Strict):
             )
         if self.frames_per_clip() < 1:
             raise ValueError(
-                f"no frames: motion.frames {self.motion.frames} at {self.motion.capture_hz} Hz give {motion_s:.2f} s of motion, "
-                f"less than one frame at scan.frame_rate_hz {self.scan.frame_rate_hz:g} (raise motion.frames or the frame rate)"
+                f"no frames: motion.frames {self.motion.frames} at {self.motion.capture_hz} Hz give {motion_s:.2f} s "
+                f"of motion, "
+                f"less than one frame at scan.frame_rate_hz {self.scan.frame_rate_hz:g} (raise motion.frames or the "
+                f"frame rate)"
             )
         most = dataset_format(self.dataset.format).max_frames_per_clip
         if most is not None and self.frames_per_clip() > most:
             raise ValueError(
-                f"scan.frames: {self.frames_per_clip()} frames per clip; the {self.dataset.format} format numbers at most "
-                f"{most} (lower scan.frames or motion.frames, or use more clips)"
+                f"scan.frames: {self.frames_per_clip()} frames per clip; the {self.dataset.format} format numbers at "
+                f"most {most} (lower scan.frames or motion.frames, or use more clips)"
             )
         return self
 
@@ -373,16 +375,18 @@ class Scenario(_Strict):
         shots_per_s = self.scan.density * sum(spec.shots_per_s for spec in self.sensor_specs())
         if shots_per_s > MAX_SHOTS_PER_S:
             raise ValueError(
-                f"shot budget: {len(self.sensors)} sensors at scan.density {self.scan.density:g} fire {shots_per_s:,.0f} shots/s, "
-                f"more than {MAX_SHOTS_PER_S:,} (lower scan.density, the number of sensors or custom heads' shots_per_s)"
+                f"shot budget: {len(self.sensors)} sensors at scan.density {self.scan.density:g} fire "
+                f"{shots_per_s:,.0f} shots/s, "
+                f"more than {MAX_SHOTS_PER_S:,} (lower scan.density, the number of sensors or custom heads' "
+                f"shots_per_s)"
             )
         shots_per_frame = shots_per_s / self.scan.frame_rate_hz
         frame_bytes = shots_per_frame * (BYTES_PER_SHOT + self.noise.subrays * BYTES_PER_RAY)
         if frame_bytes > MAX_FRAME_BYTES:
             raise ValueError(
                 f"shot budget: a frame of {shots_per_frame:,.0f} shots x {self.noise.subrays} subrays needs about "
-                f"{frame_bytes / 2**30:.1f} GiB, more than {MAX_FRAME_BYTES / 2**30:g} (lower noise.subrays or scan.density, "
-                f"or raise scan.frame_rate_hz)"
+                f"{frame_bytes / 2**30:.1f} GiB, more than {MAX_FRAME_BYTES / 2**30:g} (lower noise.subrays or "
+                f"scan.density, or raise scan.frame_rate_hz)"
             )
         return self
 

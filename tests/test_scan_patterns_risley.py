@@ -29,7 +29,8 @@ def test_every_shot_within_2e_5_degrees_of_the_official_file(official, model_4s)
     np.testing.assert_allclose(model_4s.t_s, official.t_s, rtol=0, atol=1e-9)
     error_deg = angle_between_deg(model_4s.dirs, official.dirs)
     print(
-        f"risley vs official Mid-40, 400,000 shots: max {error_deg.max():.2e} deg, rms {np.sqrt(np.mean(error_deg**2)):.2e} deg"
+        f"risley vs official Mid-40, 400,000 shots: max {error_deg.max():.2e} deg, rms "
+        f"{np.sqrt(np.mean(error_deg**2)):.2e} deg"
     )
     assert error_deg.max() < 2e-5
 

@@ -40,7 +40,8 @@ def header(result: StudyResult, command: str) -> list[str]:
     return [
         f"Command: `{command}`",
         "",
-        f"- Dataset: `{d.path}`, scenario `{scenario.name}` (seed {scenario.seed}, density x{scenario.scan.density:g}), {made}; "
+        f"- Dataset: `{d.path}`, scenario `{scenario.name}` (seed {scenario.seed}, density "
+        f"x{scenario.scan.density:g}), {made}; "
         f"{_val_text(d, first.data.split)}, scored from each clip's third frame on.",
         f"- Budget: {budget}; loader processes: {first.train.workers}; device {result.device}.",
         f"- Seed: {first.seed} (training draws and augmentation). Split: {_split_text(first.data.split)}.",
@@ -175,7 +176,8 @@ def table2_markdown(result: StudyResult, command: str) -> str:
     first = next(iter(filters.values()))
     lines += [
         "AB3DMOT's metrics (train.metrics.tracking) on the val clips against the labelled boxes and track ids; "
-        "sAMOTA, AMOTA, AMOTP, MOTA, MOTP in percent; MOTA, MOTP, IDS and FRAG at the score threshold of the best MOTA. "
+        "sAMOTA, AMOTA, AMOTP, MOTA, MOTP in percent; MOTA, MOTP, IDS and FRAG at the score threshold of the best "
+        "MOTA. "
         "HOTA: TrackEval's, on 3D IoU; centre HOTA: the same on the pitch plane with SoccerNet GS-HOTA's 5 m Gaussian "
         "tolerance on centre distance (beyond the paper). AB3DMOT tracks the boxes at t; the 3D DIoU tracker the whole "
         "tracklets. Every tracker is defined by its file in train/configs/tracking/.",

@@ -68,6 +68,7 @@ def run(args) -> int:
     progress = tqdm(frames, unit="frame", desc=f"{clip} -> {args.output.name}", dynamic_ncols=True)
     summary = write_bag(args.output, (dataset.frame(clip, i) for i in progress), list(dataset.manifest.sensors), layout)
     print(
-        f"{args.output}: {summary.frames} frames of {clip}, {summary.messages} messages (ROS 2, MCAP, {layout.name} points)"
+        f"{args.output}: {summary.frames} frames of {clip}, {summary.messages} messages (ROS 2, MCAP, {layout.name} "
+        f"points)"
     )
     return 0

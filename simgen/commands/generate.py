@@ -158,7 +158,8 @@ def run(args) -> int:
     fmt = scenario.dataset.format
     rate = totals["frames"] / max(totals["seconds"], 1e-9)
     lines = [
-        f"dataset   {args.output} ({fmt}, scenario '{scenario.name}', seed {scenario.seed}, density x{scenario.scan.density:g})",
+        f"dataset   {args.output} ({fmt}, scenario '{scenario.name}', seed {scenario.seed}, density "
+        f"x{scenario.scan.density:g})",
         f"clips     {totals['clips']} ({totals['resumed_clips']} kept from the interrupted run)",
         f"frames    {totals['frames']:,}",
         f"points    {totals['points']:,}",

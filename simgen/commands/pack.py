@@ -28,7 +28,8 @@ def run(args) -> int:
 
     manifest = pack(args.dataset, args.output, progress=True)
     print(
-        f"{args.output}: {len(manifest.files)} files of {args.dataset} packed, {_megabytes(args.dataset)} -> {_megabytes(args.output)} MB"
+        f"{args.output}: {len(manifest.files)} files of {args.dataset} packed, {_megabytes(args.dataset)} -> "
+        f"{_megabytes(args.output)} MB"
     )
     return 0
 

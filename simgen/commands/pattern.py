@@ -82,7 +82,8 @@ def run(args) -> int:
         note = (
             f"simgen {__version__} pattern {args.preset}: window ({t0:g}, {t1:g}] s, density x{args.density:g}, "
             f"{sensor.shots_per_s * args.density:,.0f} shots/s; sensor frame x forward, y left, z up; "
-            "azimuth_deg about z from x towards y, zenith_deg 90 = boresight (Livox's layout); head = head index; line = the head's laser"
+            "azimuth_deg about z from x towards y, zenith_deg 90 = boresight (Livox's layout); head = head index; line "
+            "= the head's laser"
         )
         try:
             with open(tmp, "wb") as f:

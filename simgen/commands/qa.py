@@ -37,7 +37,8 @@ def register(subparsers) -> None:
         "--max-frames",
         type=int,
         default=DEFAULT_MAX_FRAMES,
-        help=f"frames read for the per-humanoid and intensity plots, spread over the dataset (default {DEFAULT_MAX_FRAMES})",
+        help=f"frames read for the per-humanoid and intensity plots, spread over the dataset (default "
+             f"{DEFAULT_MAX_FRAMES})",
     )
     parser.set_defaults(func=run)
 

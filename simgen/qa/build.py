@@ -216,7 +216,8 @@ def dataset_report(dataset: Dataset, tol: Tolerances, out_dir: Path, max_frames:
     ]
     scenario = manifest.scenario.get("name", "?")
     subject = (
-        f"{dataset.root.resolve().name}: {manifest.format}, scenario '{scenario}', seed {manifest.seed}, {len(manifest.clips)} clips, "
+        f"{dataset.root.resolve().name}: {manifest.format}, scenario '{scenario}', seed {manifest.seed}, "
+        f"{len(manifest.clips)} clips, "
         f"{len(dataset)} frames; tolerances from {tol.source}."
     )
     return Report(f"Dataset QA: {dataset.root.resolve().name}", subject, tuple(checks), tuple(sections))

@@ -124,7 +124,8 @@ def count_problems(
                 Problem(
                     file,
                     row,
-                    f"{plural(int(inside.sum()), 'point')} inside the box (grown by {grow:.2f} m), num_points is {stored}",
+                    f"{plural(int(inside.sum()), 'point')} inside the box (grown by {grow:.2f} m), num_points is "
+                    f"{stored}",
                 )
             )
     return problems
@@ -163,7 +164,8 @@ def track_problems(
                         Problem(
                             file,
                             row,
-                            f"track id {track} moved at {speed:.1f} m/s since frame {seen[0]} (limit {tol.max_speed_mps:g})",
+                            f"track id {track} moved at {speed:.1f} m/s since frame {seen[0]} (limit "
+                            f"{tol.max_speed_mps:g})",
                         )
                     )
             last[int(track)] = (index, centre)

@@ -62,7 +62,8 @@ def shot_patterns(heads: list[HeadQA], path: Path) -> None:
             uv = window(shots, seconds, head.field_of_view)
             _pattern_panel(ax, uv, head, f"{name}: {seconds:g} s, {len(uv):,} shots")
     fig.suptitle(
-        "Shot pattern seen from behind the head (cones: azimuthal-equidistant; boxes: azimuth and elevation; colour: time, dark = early)"
+        "Shot pattern seen from behind the head (cones: azimuthal-equidistant; boxes: azimuth and elevation; colour: "
+        "time, dark = early)"
     )
     _save(fig, path)
 

@@ -105,7 +105,8 @@ def to_html(report: Report, out_dir: Path) -> str:
             parts.append(f"<p>{html.escape(section.text)}</p>")
         for path, caption in section.images:
             parts.append(
-                f'<figure><img src="{data_uri(out_dir / path)}" alt="{html.escape(caption)}"><figcaption>{html.escape(caption)}</figcaption></figure>'
+                f'<figure><img src="{data_uri(out_dir / path)}" '
+                f'alt="{html.escape(caption)}"><figcaption>{html.escape(caption)}</figcaption></figure>'
             )
         parts += [_html_table(t) for t in section.tables]
     parts += [IMAGES_LOADED, "</body></html>"]
