@@ -168,7 +168,8 @@ def main() -> None:
         f"| end to end (`simgen generate`, 1 worker) | {largest / e2e_s:.1f} | 1.00 |",
         f"| engine capture only | {largest / capture_s:.1f} | {e2e_s / capture_s:.2f} |",
         f"| rendering + labels only | {largest / render_s:.1f} | {e2e_s / render_s:.2f} |",
-        f"| writing, hashing, manifest (end to end - capture - rendering) | {largest / max(e2e_s - capture_s - render_s, 1e-9):.1f} | "
+        "| writing, hashing, manifest (end to end - capture - rendering) | "
+        f"{largest / max(e2e_s - capture_s - render_s, 1e-9):.1f} | "
         f"{e2e_s / max(e2e_s - capture_s - render_s, 1e-9):.2f} |",
     ]
     text = (
@@ -189,8 +190,8 @@ def main() -> None:
         f"{sizes[0]:,}-frame run's, "
         f"per extra frame), {render_faults / largest:.1f} in rendering + labels alone (first frame included).\n\n"
         f"Whole match ({MATCH_FRAMES:,} frames) projected from the {largest:,}-frame run with {args.workers} workers: "
-        f"capture "
-        f"{capture_s * scale / 3600:.2f} h (one engine, in order) + the rest {rest_s * scale / args.workers / 3600:.2f} h "
+        f"capture {capture_s * scale / 3600:.2f} h (one engine, in order) "
+        f"+ the rest {rest_s * scale / args.workers / 3600:.2f} h "
         f"(shards over {args.workers} workers) = {match_s / 3600:.2f} h.\n\n"
         f"A shard's motion at a whole match's length ({clip.keypoints_m.nbytes * MATCH_FRAMES / largest / 2**20:,.0f} "
         f"MiB of keypoints; the "

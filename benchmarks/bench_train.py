@@ -20,7 +20,8 @@ the CPU studies run two fits side by side on two cores).
 
 Writes benchmarks/results/train.md.
 
-Usage: .venv/bin/python benchmarks/bench_train.py [--baseline d2bfbe4] [--iterations 40] [--rounds 2] [--paper-iterations 3]
+Usage: .venv/bin/python benchmarks/bench_train.py [--baseline d2bfbe4] [--iterations 40] [--rounds 2]
+[--paper-iterations 3]
 """
 
 from __future__ import annotations
@@ -239,7 +240,8 @@ def main() -> None:
         markdown_table(["tree", "CPU s", "ratio"], val_rows),
         f"This tree's val pass in-process: inference {inference_s:.1f} CPU s, AP {ap_s:.2f} CPU s for {frames} frames "
         f"({per_frame:.0f} detections per frame).",
-        "A step of this tree by phase, ms (compact late, batch 2; CUDA synchronised at each phase for this table only):",
+        "A step of this tree by phase, ms (compact late, batch 2; CUDA synchronised at each phase for this table "
+        "only):",
         markdown_table(["phase"] + [d.type for d in devices], step_rows),
         f"Paper-size configs (train/configs/paper/), samples/s over {args.paper_iterations} steps after one warm-up, "
         "loader in this process; batch 2 on CPU, the configs' 8 on CUDA:",

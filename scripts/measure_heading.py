@@ -85,7 +85,8 @@ def main() -> None:
         print(f"  at {low:g}-{high:g} m/s ({chosen.mean():.0%} of samples): change per scan frame median "
               f"{np.median(change[chosen]):.1f}, p90 {np.percentile(change[chosen], 90):.1f} degrees")
     print(
-        f"second difference per capture step, degrees: median {np.median(second):.3f}, p99 {np.percentile(second, 99):.2f}"
+        f"second difference per capture step, degrees: median {np.median(second):.3f}, "
+        f"p99 {np.percentile(second, 99):.2f}"
     )
 
 

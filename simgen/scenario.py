@@ -145,7 +145,8 @@ class DatasetConfig(_Strict):
 
 
 class NoiseConfig(_Strict):
-    """The sensor's imperfections (section `noise`; used by simgen.render.noise). Defaults: the Livox Mid-40 datasheet."""
+    """The sensor's imperfections (section `noise`; used by simgen.render.noise). Defaults: the Livox Mid-40
+    datasheet."""
 
     range_sigma_m: float = Field(0.02, ge=0, le=1, description="Gaussian range noise, 1 sigma, metres.")
     angle_sigma_deg: float = Field(
@@ -305,8 +306,9 @@ class Scenario(_Strict):
     custom_sensors: list[CustomSensorConfig] = Field(
         default_factory=list,
         max_length=64,
-        description="Sensor presets of this scenario: {name, description, heads: [{like: PRESET | pattern: risley|rose|replay, "
-        "params, shots_per_s, fov_deg, yaw_deg, pitch_deg, time_offset_s}]} (scan_patterns.make_sensor).",
+        description="Sensor presets of this scenario: {name, description, heads: "
+        "[{like: PRESET | pattern: risley|rose|replay, params, shots_per_s, fov_deg, yaw_deg, pitch_deg, "
+        "time_offset_s}]} (scan_patterns.make_sensor).",
     )
     sensors: list[SensorConfig] = Field(default_factory=lambda: [SensorConfig()], min_length=1, max_length=16)
     scan: ScanConfig = ScanConfig()

@@ -1,4 +1,5 @@
-"""train.data and the head's target assigner: track matching, one augmentation for all frames, crop, pillars, targets."""
+"""train.data and the head's target assigner: track matching, one augmentation for all frames, crop, pillars,
+targets."""
 
 import math
 

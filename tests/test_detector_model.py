@@ -184,7 +184,8 @@ def test_paper_configs_have_the_papers_sizes_and_train_at_tiny_range():
 
 
 def test_scaled_inputs_bring_every_decoration_to_unit_size():
-    """`scale_inputs`: absolute x, y (tens of metres) no longer dwarf the pillar offsets (centimetres) and the time channel."""
+    """`scale_inputs`: absolute x, y (tens of metres) no longer dwarf the pillar offsets (centimetres) and the time
+    channel."""
     raw = tiny_config("early").model_dump(mode="json")
     raw["model"]["pillar_encoder"]["scale_inputs"] = True
     scaled, plain = (

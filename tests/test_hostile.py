@@ -258,7 +258,8 @@ def _yaml_case(draw) -> tuple[str, bytes]:
             anchors = "\n".join("  " + line for line in lines)
             text = (
                 base
-                + f"bombs:\n{anchors}\ncustom_sensors:\n  - {{name: c, heads: [{{pattern: rose, params: {{k: *l{levels - 1}}}}}]}}\n"
+                + f"bombs:\n{anchors}\ncustom_sensors:\n"
+                f"  - {{name: c, heads: [{{pattern: rose, params: {{k: *l{levels - 1}}}}}]}}\n"
             )
     elif kind == "deep":
         depth = draw(st.integers(MAX_YAML_DEPTH + 1, 20_000))

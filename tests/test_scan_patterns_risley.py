@@ -40,7 +40,8 @@ def test_coverage_curve_within_one_point_of_the_official_file(official, model_4s
     model = sp.coverage_curve(model_4s, 38.4, sp.COVERAGE_TIMES_S, cell_deg)
     reference = sp.coverage_curve(official, 38.4, sp.COVERAGE_TIMES_S, cell_deg)
     print(
-        f"{cell_deg} deg cells: official {np.round(reference * 100, 2)} %, max diff {np.abs(model - reference).max() * 100:.4f} points"
+        f"{cell_deg} deg cells: official {np.round(reference * 100, 2)} %, "
+        f"max diff {np.abs(model - reference).max() * 100:.4f} points"
     )
     assert np.all(np.abs(model - reference) <= 0.01)
     assert np.all(np.diff(model) >= 0) and model[0] > 0

@@ -1,4 +1,5 @@
-"""`simgen-train study` end to end on a tiny generated dataset, its reuse of data and models, and its one-line errors."""
+"""`simgen-train study` end to end on a tiny generated dataset, its reuse of data and models, and its one-line
+errors."""
 
 from __future__ import annotations
 

@@ -325,7 +325,8 @@ def weight_fields(config: DetectorConfig) -> dict:
 
 
 def same_weights(a: DetectorConfig, b: DetectorConfig) -> bool:
-    """Whether training with `a` and with `b` gives the same weights (they differ at most in `infer` and NOT_WEIGHTS_TRAIN)."""
+    """Whether training with `a` and with `b` gives the same weights (they differ at most in `infer` and
+    NOT_WEIGHTS_TRAIN)."""
     return weight_fields(a) == weight_fields(b)
 
 

@@ -2,7 +2,8 @@
 
 L_cls: sigmoid focal loss over positive and negative anchors; L_loc^i: smooth L1 of box i's
 residuals at positive anchors, the yaw term as sin(yaw_pred - yaw_true) (SECOND); L_dir: cross
-entropy of the direction bin at positive anchors. All are normalised by the number of positives. Nothing here reads a value back from the device:
+entropy of the direction bin at positive anchors. All are normalised by the number of positives. Nothing here reads a
+value back from the device:
 a training step runs without host synchronisation (`LossTerms.as_floats` does, every `log_every`).
 """
 

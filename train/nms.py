@@ -26,7 +26,8 @@ def _greedy(order: NDArray[np.int64], suppresses: NDArray[np.bool_], keep_max: i
 def nms_bev(
     boxes: NDArray[np.float32], scores: NDArray[np.float32], iou_threshold: float, keep_max: int
 ) -> NDArray[np.int64]:
-    """Indices of kept boxes (N, 7), best score first: a box goes when it overlaps a kept one by more than the threshold."""
+    """Indices of kept boxes (N, 7), best score first: a box goes when it overlaps a kept one by more than the
+    threshold."""
     order = np.argsort(-scores, kind="stable")
     return _greedy(order, bev_iou(boxes[order], boxes[order]) > iou_threshold, keep_max)
 

@@ -32,7 +32,8 @@ def _ordering(name_a: str, a: Sequence[float], name_b: str, b: Sequence[float]) 
     holds = sum(x > y for x, y in zip(a, b))
     beyond = min(a) > max(b)
     verdict = "**beyond the spread**" if beyond else ("within the spread" if holds else "**reversed in every seed**")
-    return f"- {name_a} > {name_b}: holds in {holds} of {len(a)} seeds, {verdict} (means {statistics.mean(a):.2f} and {statistics.mean(b):.2f})."
+    means = f"{statistics.mean(a):.2f} and {statistics.mean(b):.2f}"
+    return f"- {name_a} > {name_b}: holds in {holds} of {len(a)} seeds, {verdict} (means {means})."
 
 
 def table1_seeds(results: Sequence[StudyResult], seeds: Sequence[int], command: str) -> str:

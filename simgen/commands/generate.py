@@ -1,4 +1,5 @@
-"""`simgen generate`: a scenario -> a labelled dataset (Parquet, KITTI, KITTI tracking, OpenPCDet or a ROS 2 MCAP bag per clip)."""
+"""`simgen generate`: a scenario -> a labelled dataset (Parquet, KITTI, KITTI tracking, OpenPCDet or a ROS 2 MCAP bag
+per clip)."""
 
 from __future__ import annotations
 

@@ -170,7 +170,8 @@ def read_clip(path: str | Path) -> MotionClip:
         raise UserError(f"{path}: not a readable Parquet motion clip ({error})") from None
     except (KeyError, ValueError) as error:  # a column missing or of another width
         raise UserError(
-            f"{path}: not a simgen motion clip ({type(error).__name__}: {str(error).splitlines()[0] if str(error) else error!r})"
+            f"{path}: not a simgen motion clip "
+            f"({type(error).__name__}: {str(error).splitlines()[0] if str(error) else error!r})"
         ) from None
     frames = int(frame.max()) + 1
     humanoids = rows // max(frames, 1)
@@ -230,7 +231,8 @@ def read_clip_arrays(directory: str | Path) -> MotionClip:
         arrays = {name: np.load(directory / f"{name}.npy", mmap_mode="r", allow_pickle=False) for name in FRAME_ARRAYS}
     except (OSError, ValueError) as error:  # missing, truncated or foreign files (JSONDecodeError is a ValueError)
         raise UserError(
-            f"{directory}: not a readable motion capture ({type(error).__name__}: {(str(error).splitlines() or [''])[0]})"
+            f"{directory}: not a readable motion capture "
+            f"({type(error).__name__}: {(str(error).splitlines() or [''])[0]})"
         ) from None
     if not isinstance(info, dict) or not {"capture_hz", "metadata"} <= info.keys():
         raise UserError(f"{directory}: a motion capture without its clip.json fields")

@@ -70,7 +70,8 @@ def _html_table(table: Table, verdicts: bool = False) -> str:
     rows = []
     for row in table.rows:
         cells = "".join(
-            f'<td class="{"verdict" if verdicts and i == 0 else "" if verdicts or i == 0 else "num"}">{html.escape(v)}</td>'
+            f'<td class="{"verdict" if verdicts and i == 0 else "" if verdicts or i == 0 else "num"}">'
+            f"{html.escape(v)}</td>"
             for i, v in enumerate(row)
         )
         rows.append(f'<tr class="{html.escape(row[0]) if verdicts else ""}">{cells}</tr>')

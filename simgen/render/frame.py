@@ -1,8 +1,8 @@
 """Render one LiDAR frame: cast the shots of a sweep into the posed scene, then apply the sensor's noise.
 
 Every shot keeps its own time: humanoids and the ball are posed per time slice (`simgen.render.world`)
-by interpolating the motion clip, so fast players smear as on a real Livox. The frame's point count is exactly its shots minus random
-dropouts minus misses (no return, out of range): `ScanFrame` says all three.
+by interpolating the motion clip, so fast players smear as on a real Livox. The frame's point count is exactly its shots
+minus random dropouts minus misses (no return, out of range): `ScanFrame` says all three.
 
 Per ray the work is compiled (numba): the analytic ground and its lines, the lookup of the
 bounding spheres a ray passes through (`simgen.render.candidates`), preparing and folding back the

@@ -1,7 +1,8 @@
 """The pitch: an analytic ground plane (z = 0) with painted lines (IFAB Laws of the Game sizes).
 
 No mesh: a ray's ground hit is solved in closed form (`simgen.render.frame`), and `on_line_at` says
-whether the hit point is on a painted line (compiled: the renderer asks it for every ray). Pitch frame of `simgen.vocab`; metres.
+whether the hit point is on a painted line (compiled: the renderer asks it for every ray). Pitch frame of
+`simgen.vocab`; metres.
 """
 
 from __future__ import annotations

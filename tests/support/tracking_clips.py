@@ -9,8 +9,8 @@ each other with 0.3 m between their paths.
 
 Tracklets are the ground-truth boxes at t-2, t-1 and t (the first frames repeat frame 0), with,
 optionally, Gaussian noise, runs of missed detections, false tracklets (anywhere, duplicates
-straying from a detected player, or a flood of near-duplicates a set distance from each), and *fused* tracklets for players closer than
-``fuse_distance_m``: one tracklet whose boxes are the average of the two players' (centre, size and
+straying from a detected player, or a flood of near-duplicates a set distance from each), and *fused* tracklets for
+players closer than ``fuse_distance_m``: one tracklet whose boxes are the average of the two players' (centre, size and
 box axis), as in the paper's Fig. 4. Everything random comes from the numpy Generator passed in.
 """
 
