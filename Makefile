@@ -1,6 +1,6 @@
 # Two commands do everything on a fresh Debian machine (root, no GPU):
 #   make demo   set up, then generate the default scenario's dataset
-#   make test   set up, then run the whole test suite
+#   make test   set up, then lint (ruff) and run the whole test suite
 SHELL := /bin/bash
 VENV := .venv
 SIMGEN := $(VENV)/bin/simgen
@@ -20,6 +20,7 @@ demo: setup
 	@echo "      source $(VENV)/bin/activate puts simgen, duckdb and rerun on PATH for the README's examples"
 
 test: setup
+	$(VENV)/bin/ruff check .  # lint first (rules in pyproject.toml): a violation stops here with ruff's own message
 	$(VENV)/bin/python -m pytest -q -rs  # -rs: every skip listed with its reason (none expected)
 
 bench: setup

@@ -30,9 +30,9 @@ from trimesh.transformations import transform_points
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # this tree's packages, and tests.support's poses
 
-from simgen.body import mesh as body  # noqa: E402
-from simgen.vocab import TEAM_NAMES  # noqa: E402
-from tests.support.poses import keypoints, random_pose  # noqa: E402
+from simgen.body import mesh as body
+from simgen.vocab import TEAM_NAMES
+from tests.support.poses import keypoints, random_pose
 
 HUMANOIDS = (1, 25, 100)
 REPEATS = 5  # timing runs of at least 0.2 s each; the best counts
@@ -52,7 +52,9 @@ def trimesh_pose(templates: list[tuple[list[np.ndarray], np.ndarray]], kp: np.nd
     transform = np.zeros(rotation.shape[:2] + (4, 4))
     transform[..., :3, :3], transform[..., :3, 3], transform[..., 3, 3] = rotation, origin, 1.0
     return [
-        trimesh.Trimesh(np.concatenate([transform_points(v, t) for v, t in zip(parts, transforms)]), faces, process=False)
+        trimesh.Trimesh(
+            np.concatenate([transform_points(v, t) for v, t in zip(parts, transforms)]), faces, process=False
+        )
         for (parts, faces), transforms in zip(templates, transform)
     ]
 
@@ -102,7 +104,15 @@ def main() -> None:
         "in the renderer, which builds the meshes once per clip and then moves only the parts' frames. Floor: "
         "copying the H x V x 3 float32 vertex array.",
         markdown_table(
-            ["humanoids", "us per call", "meshes/s", "trimesh meshes/s", "speed-up", "part_frames, us", "copy floor, us"],
+            [
+                "humanoids",
+                "us per call",
+                "meshes/s",
+                "trimesh meshes/s",
+                "speed-up",
+                "part_frames, us",
+                "copy floor, us",
+            ],
             rows,
             left=0,
         ),

@@ -33,9 +33,9 @@ from table import machine, markdown_table, write_results
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # this tree's packages, and tests.support's synthetic frames
 
-import simgen.datasets  # noqa: E402
-from simgen.datasets import FORMATS, finish_dataset, parquet, write_clip  # noqa: E402
-from tests.support.datasets import make_clip, sensors  # noqa: E402
+import simgen.datasets
+from simgen.datasets import FORMATS, finish_dataset, parquet, write_clip
+from tests.support.datasets import make_clip, sensors
 
 POINTS = 25_000
 HUMANOIDS = 25
@@ -67,7 +67,10 @@ def best_alternating(runs: list[Callable[[], None]]) -> list[float]:
 def write_npz(root: Path, frames) -> None:
     root.mkdir(parents=True, exist_ok=True)
     for frame in frames:
-        arrays = {**{f"scan_{k}": v for k, v in vars(frame.scan).items() if isinstance(v, np.ndarray)}, **vars(frame.labels)}
+        arrays = {
+            **{f"scan_{k}": v for k, v in vars(frame.scan).items() if isinstance(v, np.ndarray)},
+            **vars(frame.labels),
+        }
         np.savez_compressed(root / f"{frame.index:06d}.npz", **arrays)
 
 
@@ -84,7 +87,9 @@ def write_parquet_defaults(root: Path, frames) -> None:
     tables = {
         "frames": parquet.frames_table(frames[0].clip, [parquet.frame_row(frame) for frame in frames]),
         "points": pyarrow.concat_tables(parquet.points_table(frame) for frame in frames),
-        "boxes": parquet.boxes_table(frames[0].clip, [frame.index for frame in frames], [frame.labels for frame in frames]),
+        "boxes": parquet.boxes_table(
+            frames[0].clip, [frame.index for frame in frames], [frame.labels for frame in frames]
+        ),
         "sensors": parquet.sensors_table(sensors()),
     }
     for name, table in tables.items():
@@ -127,11 +132,15 @@ def measure(frames, work: Path) -> list[tuple[str, float, float, float, float]]:
     rows = []
     for index, (name, write, read, read_unchecked) in enumerate(cases):
         root = work / str(index)
-        write_s = best_seconds(lambda: write(root), lambda: shutil.rmtree(root, ignore_errors=True))
+        write_s = best_seconds(
+            functools.partial(write, root), functools.partial(shutil.rmtree, root, ignore_errors=True)
+        )
         if read_unchecked is read:
-            read_s = unchecked_s = best_seconds(lambda: read(root), lambda: None)
+            read_s = unchecked_s = best_seconds(functools.partial(read, root), lambda: None)
         else:
-            read_s, unchecked_s = best_alternating([lambda: read(root), lambda: read_unchecked(root)])
+            read_s, unchecked_s = best_alternating(
+                [functools.partial(read, root), functools.partial(read_unchecked, root)]
+            )
         size = sum(p.stat().st_size for p in root.rglob("*") if p.is_file())
         rows.append((name, size / count, count / write_s, count / read_s, count / unchecked_s))
         print(f"{name}: {size / count:,.0f} B/frame, {count / write_s:,.1f} written, {count / read_s:,.1f} read "
@@ -163,12 +172,21 @@ def main() -> None:
         "Baselines, holding the same fields as our Parquet: every array of the frame (points and labels) in one "
         "`numpy.savez_compressed` per frame (the ratios are against it), and our Parquet tables written with "
         "pyarrow's defaults (`pq.write_table`: snappy, dictionary, plain floats; read with `pq.read_table`). Ours, "
-        "`parquet`: zstd, byte-stream-split floats, points in row groups of 10 frames; KITTI and OpenPCDet hold x, y, z, "
-        "intensity and the boxes. Our write includes hashing every file for the manifest and the dataset card; our "
+        "`parquet`: zstd, byte-stream-split floats, points in row groups of 10 frames; KITTI and OpenPCDet hold x, y, "
+        "z, intensity and the boxes. Our write includes hashing every file for the manifest and the dataset card; our "
         "read checks every file's sha256 (the default; the last columns: `verify=False`). The baselines do neither.",
         markdown_table(
-            ["format", "bytes/frame", "write frames/s", "read frames/s", "read, sha256 unchecked", "bytes vs baseline",
-             "write vs baseline", "read vs baseline", "unchecked read vs baseline"],
+            [
+                "format",
+                "bytes/frame",
+                "write frames/s",
+                "read frames/s",
+                "read, sha256 unchecked",
+                "bytes vs baseline",
+                "write vs baseline",
+                "read vs baseline",
+                "unchecked read vs baseline",
+            ],
             table,
         ),
         out=args.out,

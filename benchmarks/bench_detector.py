@@ -24,19 +24,30 @@ from table import machine, markdown_table, write_results
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from train.config import load_config  # noqa: E402
-from train.data import SampleSet, collate, loader  # noqa: E402
-from train.losses import detection_loss  # noqa: E402
-from train.models.detector import build_detector  # noqa: E402
-from train.postprocess import postprocess  # noqa: E402
+from train.config import load_config
+from train.data import SampleSet, collate, loader
+from train.losses import detection_loss
+from train.models.detector import build_detector
+from train.postprocess import postprocess
 
 MODELS = ("single", "early", "late")
 
 
 def make_dataset(folder: Path) -> str:
     out = folder / "paper_x1_12"
-    command = [sys.executable, "-m", "simgen.cli", "generate", str(ROOT / "scenarios" / "paper_x1.yaml"), "-o", str(out),
-               "--frames", "12", "--clips", "1"]
+    command = [
+        sys.executable,
+        "-m",
+        "simgen.cli",
+        "generate",
+        str(ROOT / "scenarios" / "paper_x1.yaml"),
+        "-o",
+        str(out),
+        "--frames",
+        "12",
+        "--clips",
+        "1",
+    ]
     subprocess.run(command, check=True, capture_output=True, cwd=ROOT)
     return str(out)
 
@@ -113,11 +124,15 @@ def main() -> int:
         "Detector throughput on CPU",
         f"Written by `benchmarks/bench_detector.py --steps {args.steps} --frames {args.frames}`; "
         f"{torch.get_num_threads()} torch threads. " + machine(torch=torch.__version__),
-        "Configs as committed (train/configs/): the paper's range [-40, 40] x [-40, 40] x [-0.1, 2.5] m, 0.25 m pillars "
-        "(320 x 320), backbone 4/6/6 layers of 8/16/32 channels, output 160 x 160 x 2 anchors. Data: one 12-frame clip of "
-        "scenarios/paper_x1.yaml. Baseline `loading`: reading three frames through simgen.datasets, crop, pillar "
+        "Configs as committed (train/configs/): the paper's range [-40, 40] x [-40, 40] x [-0.1, 2.5] m, 0.25 m "
+        "pillars "
+        "(320 x 320), backbone 4/6/6 layers of 8/16/32 channels, output 160 x 160 x 2 anchors. Data: one 12-frame clip "
+        "of scenarios/paper_x1.yaml. Baseline `loading`: reading three frames through simgen.datasets, crop, pillar "
         f"indices and anchor targets in one process: {loading:.2f} samples/s.",
-        markdown_table(["model", "train samples/s", "vs loading", "vs single", "inference frames/s", "vs loading", "vs single"], rows),
+        markdown_table(
+            ["model", "train samples/s", "vs loading", "vs single", "inference frames/s", "vs loading", "vs single"],
+            rows,
+        ),
         out=args.out,
     )
     return 0

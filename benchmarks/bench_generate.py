@@ -66,7 +66,9 @@ def _per_frame_loop(scenario: Scenario, out: Path) -> None:
             t_m = hits["t_hit"].numpy()
             kept = np.isfinite(t_m)
             xyz = (rays.origin_m[kept] + rays.direction[kept] * t_m[kept, None]).astype(np.float32)
-            table = pa.table({"x": xyz[:, 0], "y": xyz[:, 1], "z": xyz[:, 2], "mesh": hits["geometry_ids"].numpy()[kept]})
+            table = pa.table(
+                {"x": xyz[:, 0], "y": xyz[:, 1], "z": xyz[:, 2], "mesh": hits["geometry_ids"].numpy()[kept]}
+            )
             pq.write_table(table, out / f"clip_{clip_index:04d}_frame_{index:06d}.parquet")
 
 
@@ -108,7 +110,9 @@ def main() -> None:
              f"{frames / loop_s:.1f}", "1.00"],
             ["simgen generate, 1 worker", frames, f"{one_s:.1f}", f"{frames / one_s:.1f}", f"{loop_s / one_s:.2f}"],
         ]
-        scaling = [["simgen generate, 2 workers", frames, f"{two_s:.1f}", f"{frames / two_s:.1f}", f"{one_s / two_s:.2f}"]]
+        scaling = [
+            ["simgen generate, 2 workers", frames, f"{two_s:.1f}", f"{frames / two_s:.1f}", f"{one_s / two_s:.2f}"]
+        ]
         raw = points * 16 / frames  # float32 x, y, z, intensity
         sizes = [["raw float32 x, y, z, intensity (baseline)", f"{raw:,.0f}", "1.00"]]
         sizes.append(["parquet (all fields)", f"{parquet_bytes / frames:,.0f}", f"{parquet_bytes / frames / raw:.2f}"])
@@ -122,7 +126,8 @@ def main() -> None:
         f"`simgen generate scenarios/paper_x1.yaml --clips {args.clips} --frames {args.frames}` end to end "
         "(engine capture at 100 Hz, Mid-100 rendering with bodies posed per 10 ms slice, noise, intensity, labels, "
         "Parquet, manifest) against the loop a user would write with the same libraries for the same frames, run "
-        "as its own process like ours (start-up counted for both): the same engine capture, then per frame an Open3D scene of the ground, static meshes and bodies posed at "
+        "as its own process like ours (start-up counted for both): the same engine capture, then per frame an Open3D "
+        "scene of the ground, static meshes and bodies posed at "
         "mid-frame, the frame's rays cast on one thread, x, y, z and the mesh hit written to one Parquet file per "
         "frame (less work than ours: one pose per frame, no noise, intensity, labels or manifest). "
         + machine(numpy=np.__version__),

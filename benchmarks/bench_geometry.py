@@ -109,8 +109,19 @@ def main() -> None:
                 np.testing.assert_allclose(ours(a, b), theirs(a, b), rtol=0, atol=1e-9)
             mine, pruned_s, all_s = (seconds_per_call(fn, a, b) for fn in (ours, baseline, unpruned))
             pairs = n * n
-            rows.append([name, f"{n}x{n}", layout, f"{mine * 1e6:,.0f}", f"{pairs / mine:,.0f}", f"{pairs / pruned_s:,.0f}",
-                         f"{pruned_s / mine:.1f}x", f"{pairs / all_s:,.0f}", f"{all_s / mine:.1f}x"])
+            rows.append(
+                [
+                    name,
+                    f"{n}x{n}",
+                    layout,
+                    f"{mine * 1e6:,.0f}",
+                    f"{pairs / mine:,.0f}",
+                    f"{pairs / pruned_s:,.0f}",
+                    f"{pruned_s / mine:.1f}x",
+                    f"{pairs / all_s:,.0f}",
+                    f"{all_s / mine:.1f}x",
+                ]
+            )
             print(row(rows[-1]), flush=True)
     write_results(
         "geometry",

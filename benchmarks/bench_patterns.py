@@ -63,7 +63,9 @@ def numpy_risley(head: sp.HeadSpec, t0_s: float, t1_s: float, density: float = 1
     ones, zeros = np.ones_like(t), np.zeros_like(t)
     s = (ones, zeros, zeros)  # into prism 1 through its flat face, normal incidence: no turn
     for i, eta in ((0, p.index), (1, 1.0 / p.index)):  # out of prism 1's wedged face, into prism 2's
-        s = refract(s, (np.cos(wedge[i]), np.sin(wedge[i]) * np.cos(theta[i]), np.sin(wedge[i]) * np.sin(theta[i])), eta)
+        s = refract(
+            s, (np.cos(wedge[i]), np.sin(wedge[i]) * np.cos(theta[i]), np.sin(wedge[i]) * np.sin(theta[i])), eta
+        )
     s = refract(s, (ones, zeros, zeros), p.index)  # out of prism 2's flat face
     return t - head.time_offset_s, np.stack(s, axis=1).astype(np.float32)
 
@@ -91,7 +93,9 @@ def numpy_mid100(sensor: sp.SensorSpec, t0_s: float, t1_s: float, density: float
     for head in sensor.heads:
         t, dirs = numpy_risley(head, t0_s, t1_s, density)
         yaw = np.radians(head.yaw_deg)
-        turn = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]], np.float32)
+        turn = np.array(
+            [[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]], np.float32
+        )
         parts.append((t, dirs @ turn.T))
     return np.concatenate([t for t, _ in parts]), np.concatenate([d for _, d in parts])
 

@@ -47,7 +47,9 @@ def _open3d(vertices, faces, origins, directions):
 
     scene = build()
     rays = np.concatenate([origins, directions], axis=1).astype(np.float32)
-    cast = lambda: scene.cast_rays(o3d.core.Tensor(rays), nthreads=1)["t_hit"].numpy()  # noqa: E731
+    def cast():
+        return scene.cast_rays(o3d.core.Tensor(rays), nthreads=1)["t_hit"].numpy()
+
     return _best(build), _best(cast), cast()
 
 
@@ -59,7 +61,9 @@ def _embreex(vertices, faces, origins, directions):
 
     scene = build()
     o, d = origins.astype(np.float32), directions.astype(np.float32)
-    cast = lambda: scene.run(o, d, output=1)["tfar"]  # noqa: E731
+    def cast():
+        return scene.run(o, d, output=1)["tfar"]
+
     return _best(build), _best(cast), cast()
 
 
@@ -79,25 +83,51 @@ def main() -> None:
     rays = frame_rays(scenario, scenario.sensor_specs(), 0, start)
     # (b): rays aimed at bodies, as many as the renderer moves into part frames in a frame.
     rng = np.random.default_rng(0)
-    targets = bodies.vertices_m.reshape(-1, 3)[rng.integers(0, bodies.vertices_m.shape[0] * bodies.vertices_m.shape[1], 3000)]
+    targets = bodies.vertices_m.reshape(-1, 3)[
+        rng.integers(0, bodies.vertices_m.shape[0] * bodies.vertices_m.shape[1], 3000)
+    ]
     small_o = np.tile(rays.origin_m[:1], (3000, 1))
     small_d = targets - small_o
     small_d /= np.linalg.norm(small_d, axis=1, keepdims=True)
     rows = []
-    for name, origins, directions in (("30,000 frame rays, whole scene", rays.origin_m, rays.direction), ("3,000 rays at bodies", small_o, small_d)):
+    for name, origins, directions in (
+        ("30,000 frame rays, whole scene", rays.origin_m, rays.direction),
+        ("3,000 rays at bodies", small_o, small_d),
+    ):
         o3d_build, o3d_cast, o3d_t = _open3d(vertices, faces, origins, directions)
         emb_build, emb_cast, emb_t = _embreex(vertices, faces, origins, directions)
         hit = np.isfinite(o3d_t) & (emb_t < 1e30)
         agree = np.abs(o3d_t[hit] - emb_t[hit]).max() if hit.any() else 0.0
-        rows.append([name, f"{len(faces):,}", f"{o3d_build * 1e3:.2f}", f"{o3d_cast * 1e3:.2f}", f"{emb_build * 1e3:.2f}",
-                     f"{emb_cast * 1e3:.2f}", f"{o3d_cast / emb_cast:.2f}", f"{agree:.1e}"])
+        rows.append(
+            [
+                name,
+                f"{len(faces):,}",
+                f"{o3d_build * 1e3:.2f}",
+                f"{o3d_cast * 1e3:.2f}",
+                f"{emb_build * 1e3:.2f}",
+                f"{emb_cast * 1e3:.2f}",
+                f"{o3d_cast / emb_cast:.2f}",
+                f"{agree:.1e}",
+            ]
+        )
     write_results(
         "raycasters",
         "Ray casters",
         f"One thread each, best of {REPEATS}. Ratio: Open3D cast time / embreex cast time (above 1: embreex casts "
         "faster). " + machine(open3d=o3d.__version__),
-        markdown_table(["workload", "triangles", "Open3D build ms", "Open3D cast ms", "embreex build ms", "embreex cast ms",
-                        "ratio", "max |t| difference, m"], rows),
+        markdown_table(
+            [
+                "workload",
+                "triangles",
+                "Open3D build ms",
+                "Open3D cast ms",
+                "embreex build ms",
+                "embreex cast ms",
+                "ratio",
+                "max |t| difference, m",
+            ],
+            rows,
+        ),
     )
 
 

@@ -65,8 +65,12 @@ def _clip_worker(args) -> tuple[int, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--frames", type=int, default=0, help="frames per measure (default: the default scenario's whole clip)")
-    parser.add_argument("--repeats", type=int, default=3, help="measures of ours and of the bare cast; the best of each counts")
+    parser.add_argument(
+        "--frames", type=int, default=0, help="frames per measure (default: the default scenario's whole clip)"
+    )
+    parser.add_argument(
+        "--repeats", type=int, default=3, help="measures of ours and of the bare cast; the best of each counts"
+    )
     args = parser.parse_args()
     default = load_scenario(ROOT / "scenarios" / "default.yaml")
     clip = capture_motion(default.motion, default.seed)
@@ -95,9 +99,21 @@ def main() -> None:
     write_results(
         "render",
         "Rendering benchmark",
-        markdown_table(["sensor", "rays/frame", "frames/s, 1 core", "Mrays/s, ours", "Mrays/s, bare Open3D cast", "ratio",
-                        "frames/s, 2 cores", "real time (10 Hz), 2 cores"], rows),
-        f"{args.frames} frames of the default scenario (its whole clip) per measure, best of {args.repeats} interleaved measures of each (2 cores: "
+        markdown_table(
+            [
+                "sensor",
+                "rays/frame",
+                "frames/s, 1 core",
+                "Mrays/s, ours",
+                "Mrays/s, bare Open3D cast",
+                "ratio",
+                "frames/s, 2 cores",
+                "real time (10 Hz), 2 cores",
+            ],
+            rows,
+        ),
+        f"{args.frames} frames of the default scenario (its whole clip) per measure, best of {args.repeats} "
+        f"interleaved measures of each (2 cores: "
         "two clips, one per process, once). Ours is end to end (shots, posing per 10 ms "
         "slice, casting, noise, labels); the bare cast is Open3D's RaycastingScene casting the same rays on one "
         "thread against the scene frozen at mid-frame (BVH built beforehand, not timed). Including the first "

@@ -50,7 +50,19 @@ def _measured(command: list[str], report: Path) -> dict:
 
 def _generate(out: Path, frames: int, shard_frames: int = 0) -> tuple[float, float, int]:
     """Wall seconds, peak RSS (MiB) and minor page faults of one `simgen generate` process."""
-    command = [sys.executable, "-m", "simgen.cli", "generate", str(SCENARIO), "-o", str(out), "--clips", "1", "--frames", str(frames)]
+    command = [
+        sys.executable,
+        "-m",
+        "simgen.cli",
+        "generate",
+        str(SCENARIO),
+        "-o",
+        str(out),
+        "--clips",
+        "1",
+        "--frames",
+        str(frames),
+    ]
     command += ["--shard-frames", str(shard_frames)] if shard_frames else []
     started = time.perf_counter()
     usage = _measured(command, out.parent / f"usage-{frames}-{shard_frames}")
@@ -84,13 +96,22 @@ def _match_motion(clip, directory: Path) -> dict[str, float]:
     repeats = -(-MATCH_FRAMES * clip.capture_hz // (10 * clip.num_frames)) + 1  # 10 Hz frames
     frames = repeats * clip.num_frames
     match = dataclasses.replace(
-        clip, time_s=clip.time_s[0] + np.arange(frames) / clip.capture_hz, keypoints_m=np.tile(clip.keypoints_m, (repeats, 1, 1, 1)),
-        ball_m=np.tile(clip.ball_m, (repeats, 1)), engine_position_m=np.tile(clip.engine_position_m, (repeats, 1, 1)),
+        clip,
+        time_s=clip.time_s[0] + np.arange(frames) / clip.capture_hz,
+        keypoints_m=np.tile(clip.keypoints_m, (repeats, 1, 1, 1)),
+        ball_m=np.tile(clip.ball_m, (repeats, 1)),
+        engine_position_m=np.tile(clip.engine_position_m, (repeats, 1, 1)),
     )
-    paths = {"imports": "", "parquet": write_clip(match, directory / "match.parquet"), "arrays": write_clip_arrays(match, directory / "match")}
+    paths = {
+        "imports": "",
+        "parquet": write_clip(match, directory / "match.parquet"),
+        "arrays": write_clip_arrays(match, directory / "match"),
+    }
     peaks = {}
     for mode, path in paths.items():
-        usage = _measured([sys.executable, "-c", SHARD_POSES, mode, str(path), str(paths["arrays"])], directory / f"usage-{mode}")
+        usage = _measured(
+            [sys.executable, "-c", SHARD_POSES, mode, str(path), str(paths["arrays"])], directory / f"usage-{mode}"
+        )
         if usage["exit_code"] != 0:
             raise SystemExit(f"posing the match's motion ({mode}) failed")
         peaks[mode] = usage["peak_bytes"] / 2**20
@@ -119,7 +140,9 @@ def _capture_and_render(frames: int):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--frames", default="100,1000,6000", help="frames per clip, comma-separated (default 100,1000,6000)")
+    parser.add_argument(
+        "--frames", default="100,1000,6000", help="frames per clip, comma-separated (default 100,1000,6000)"
+    )
     parser.add_argument("--workers", type=int, default=2, help="workers of the projected whole-match run (default 2)")
     args = parser.parse_args()
     sizes = sorted(int(n) for n in args.frames.split(","))
@@ -145,26 +168,35 @@ def main() -> None:
         f"| end to end (`simgen generate`, 1 worker) | {largest / e2e_s:.1f} | 1.00 |",
         f"| engine capture only | {largest / capture_s:.1f} | {e2e_s / capture_s:.2f} |",
         f"| rendering + labels only | {largest / render_s:.1f} | {e2e_s / render_s:.2f} |",
-        f"| writing, hashing, manifest (end to end - capture - rendering) | {largest / max(e2e_s - capture_s - render_s, 1e-9):.1f} | "
+        "| writing, hashing, manifest (end to end - capture - rendering) | "
+        f"{largest / max(e2e_s - capture_s - render_s, 1e-9):.1f} | "
         f"{e2e_s / max(e2e_s - capture_s - render_s, 1e-9):.2f} |",
     ]
     text = (
         "# Streaming benchmark\n\n"
-        f"`simgen generate scenarios/full_match.yaml --clips 1 --frames N --workers 1` on this machine ({os.cpu_count()} cores, shared).\n\n"
+        f"`simgen generate scenarios/full_match.yaml --clips 1 --frames N --workers 1` on this machine "
+        f"({os.cpu_count()} cores, shared).\n\n"
         "Peak RSS of the one process (capture, rendering, writing), against the smallest N of the same run:\n\n"
         "| frames per clip | peak RSS, MiB | ratio |\n|---|---|---|\n" + "\n".join(rss_rows) + "\n\n"
-        f"Shards: {largest:,} frames are rendered as {-(-largest // AUTO_SHARD_MAX_FRAMES)} shards and joined (reading the partial clips "
-        f"back); {sizes[0]:,} frames in two shards of {max(sizes[0] // 2, 1):,} take that path too: peak {sharded_base[1]:,.0f} MiB, "
+        f"Shards: {largest:,} frames are rendered as {-(-largest // AUTO_SHARD_MAX_FRAMES)} shards and joined (reading "
+        f"the partial clips "
+        f"back); {sizes[0]:,} frames in two shards of {max(sizes[0] // 2, 1):,} take that path too: peak "
+        f"{sharded_base[1]:,.0f} MiB, "
         f"so {largest:,} frames are {runs[largest][1] / sharded_base[1]:.2f}x the same path at {sizes[0]:,} frames.\n\n"
-        f"Where {largest:,} frames' time goes, frames/s of one core (ratio: end to end seconds / the part's seconds):\n\n"
+        f"Where {largest:,} frames' time goes, frames/s of one core (ratio: end to end seconds / the part's "
+        f"seconds):\n\n"
         "| part | frames/s | ratio |\n|---|---|---|\n" + "\n".join(rate_rows) + "\n\n"
-        f"Minor page faults per frame: {e2e_faults:.1f} end to end (the {largest:,}-frame run's over the {sizes[0]:,}-frame run's, "
+        f"Minor page faults per frame: {e2e_faults:.1f} end to end (the {largest:,}-frame run's over the "
+        f"{sizes[0]:,}-frame run's, "
         f"per extra frame), {render_faults / largest:.1f} in rendering + labels alone (first frame included).\n\n"
-        f"Whole match ({MATCH_FRAMES:,} frames) projected from the {largest:,}-frame run with {args.workers} workers: capture "
-        f"{capture_s * scale / 3600:.2f} h (one engine, in order) + the rest {rest_s * scale / args.workers / 3600:.2f} h "
+        f"Whole match ({MATCH_FRAMES:,} frames) projected from the {largest:,}-frame run with {args.workers} workers: "
+        f"capture {capture_s * scale / 3600:.2f} h (one engine, in order) "
+        f"+ the rest {rest_s * scale / args.workers / 3600:.2f} h "
         f"(shards over {args.workers} workers) = {match_s / 3600:.2f} h.\n\n"
-        f"A shard's motion at a whole match's length ({clip.keypoints_m.nbytes * MATCH_FRAMES / largest / 2**20:,.0f} MiB of keypoints; the "
-        f"last 3,000 frames posed in a child process), peak RSS over a child that only imports and poses 50 frames ({motion['imports']:,.0f} MiB):\n\n"
+        f"A shard's motion at a whole match's length ({clip.keypoints_m.nbytes * MATCH_FRAMES / largest / 2**20:,.0f} "
+        f"MiB of keypoints; the "
+        f"last 3,000 frames posed in a child process), peak RSS over a child that only imports and poses 50 frames "
+        f"({motion['imports']:,.0f} MiB):\n\n"
         "| motion | peak RSS over imports, MiB | ratio |\n|---|---|---|\n"
         f"| Parquet motion file read whole (`read_clip`) | {held['parquet']:,.0f} | 1.00 |\n"
         f"| run-state arrays, mapped (`read_clip_arrays`, what `simgen generate` uses) | {held['arrays']:,.0f} | "

@@ -25,30 +25,30 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # one core: numpy's BLAS threads off
 
-import argparse  # noqa: E402
-import statistics  # noqa: E402
-import sys  # noqa: E402
-import time  # noqa: E402
-from collections.abc import Callable  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import statistics
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
 
-import numpy as np  # noqa: E402
-from scipy.optimize import linear_sum_assignment  # noqa: E402
-from table import machine, markdown_table, row, write_results  # noqa: E402
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+from table import machine, markdown_table, row, write_results
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # this tree's packages, and tests.support's synthetic clips
 
 
-from tests.support.tracking_clips import NOISY_DETECTOR, PlayersConfig, make_tracklets, simulate_players  # noqa: E402
-from train.geometry import diou_3d  # noqa: E402
-from train.metrics.hota import hota  # noqa: E402
-from train.metrics.tracking import evaluate_tracking  # noqa: E402
-from train.study import TRACKER_CONFIGS  # noqa: E402
-from train.tracking.ab3dmot import Ab3dmot  # noqa: E402
-from train.tracking.config import load_tracker_configs, make_tracker  # noqa: E402
-from train.tracking.diou_tracker import DiouTracker, DiouTrackerConfig  # noqa: E402
-from train.tracking.types import Tracklets  # noqa: E402
+from tests.support.tracking_clips import NOISY_DETECTOR, PlayersConfig, make_tracklets, simulate_players
+from train.geometry import diou_3d
+from train.metrics.hota import hota
+from train.metrics.tracking import evaluate_tracking
+from train.study import TRACKER_CONFIGS
+from train.tracking.ab3dmot import Ab3dmot
+from train.tracking.config import load_tracker_configs, make_tracker
+from train.tracking.diou_tracker import DiouTracker, DiouTrackerConfig
+from train.tracking.types import Tracklets
 
 WEIGHTS = DiouTrackerConfig().weights
 
@@ -117,8 +117,21 @@ def main() -> None:
         out = [[tracker.step(t) for t in tracklets]]
         metrics, strict, h = evaluate_tracking(truth, out), evaluate_tracking(truth, out, min_iou=0.5), hota(truth, out)
         b = metrics.best
-        score_rows.append([name, f"{metrics.samota:.4f}", f"{metrics.amota:.4f}", f"{metrics.amotp:.4f}", f"{b.mota:.4f}",
-                           f"{b.motp:.4f}", b.ids, b.frag, f"{strict.samota:.4f}", strict.best.ids, f"{h.hota:.4f}"])
+        score_rows.append(
+            [
+                name,
+                f"{metrics.samota:.4f}",
+                f"{metrics.amota:.4f}",
+                f"{metrics.amotp:.4f}",
+                f"{b.mota:.4f}",
+                f"{b.motp:.4f}",
+                b.ids,
+                b.frag,
+                f"{strict.samota:.4f}",
+                strict.best.ids,
+                f"{h.hota:.4f}",
+            ]
+        )
         print(row(score_rows[-1]), flush=True)
 
     write_results(
@@ -136,8 +149,10 @@ def main() -> None:
         markdown_table(["run", "frames/s", "ratio to AB3DMOT"], speed_rows),
         "Scores on the same clip (AB3DMOT's definitions, 3D IoU >= 0.25; the last three columns at 0.5 "
         "and HOTA): the paper's Table 2 ablation, every tracker of train/configs/tracking/.",
-        markdown_table(["tracker", "sAMOTA", "AMOTA", "AMOTP", "MOTA", "MOTP", "IDS", "FRAG", "sAMOTA@0.5", "IDS@0.5", "HOTA"],
-                       score_rows),
+        markdown_table(
+            ["tracker", "sAMOTA", "AMOTA", "AMOTP", "MOTA", "MOTP", "IDS", "FRAG", "sAMOTA@0.5", "IDS@0.5", "HOTA"],
+            score_rows,
+        ),
         out=args.out,
     )
 

@@ -20,7 +20,8 @@ the CPU studies run two fits side by side on two cores).
 
 Writes benchmarks/results/train.md.
 
-Usage: .venv/bin/python benchmarks/bench_train.py [--baseline d2bfbe4] [--iterations 40] [--rounds 2] [--paper-iterations 3]
+Usage: .venv/bin/python benchmarks/bench_train.py [--baseline d2bfbe4] [--iterations 40] [--rounds 2]
+[--paper-iterations 3]
 """
 
 from __future__ import annotations
@@ -29,31 +30,31 @@ import os
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
-import csv  # noqa: E402
-import io  # noqa: E402
-import resource  # noqa: E402
-import statistics  # noqa: E402
-import subprocess  # noqa: E402
-import sys  # noqa: E402
-import tarfile  # noqa: E402
-import tempfile  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import csv
+import io
+import resource
+import statistics
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+from pathlib import Path
 
-import torch  # noqa: E402
-import yaml  # noqa: E402
-from table import machine, markdown_table, write_results  # noqa: E402
+import torch
+import yaml
+from table import machine, markdown_table, write_results
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from train.config import parse_config  # noqa: E402
-from train.data import SampleSet, loader  # noqa: E402
-from train.evaluate import average_precisions, predict, visible_objects  # noqa: E402
-from train.fit import autocast  # noqa: E402
-from train.losses import detection_loss  # noqa: E402
-from train.models.detector import build_detector  # noqa: E402
+from train.config import parse_config
+from train.data import SampleSet, loader
+from train.evaluate import average_precisions, predict, visible_objects
+from train.fit import autocast
+from train.losses import detection_loss
+from train.models.detector import build_detector
 
 PACKAGES = ("simgen", "train", "scan_patterns")
 
@@ -96,7 +97,9 @@ def step_breakdown(config_path: Path, dataset: Path, steps: int, device: torch.d
     """Mean seconds per step of each phase, after two warm-up steps."""
     config = parse_config(yaml.safe_load(config_path.read_text()))
     model = build_detector(config).to(device).train()
-    samples = SampleSet(str(dataset), "train", config, draws=(steps + 2) * config.train.batch_size, assign=model.head.assigner)
+    samples = SampleSet(
+        str(dataset), "train", config, draws=(steps + 2) * config.train.batch_size, assign=model.head.assigner
+    )
     optimizer = torch.optim.AdamW(model.parameters(), lr=config.train.lr)
     batches = loader(samples, config.train.batch_size, 1, model.head.assigner.collate, pin_memory=device.type == "cuda")
     phases = {"waiting for data": 0.0, "forward": 0.0, "backward": 0.0, "optimiser": 0.0}
@@ -153,7 +156,9 @@ def paper_rate(name: str, dataset: Path, iterations: int, device: torch.device) 
         raw["train"]["batch_size"] = 2
     config = parse_config(raw)
     model = build_detector(config).to(device).train()
-    samples = SampleSet(str(dataset), "train", config, draws=(iterations + 1) * config.train.batch_size, assign=model.head.assigner)
+    samples = SampleSet(
+        str(dataset), "train", config, draws=(iterations + 1) * config.train.batch_size, assign=model.head.assigner
+    )
     optimizer = torch.optim.AdamW(model.parameters(), lr=config.train.lr)
     batches = loader(samples, config.train.batch_size, 0, model.head.assigner.collate)
     for step in range(iterations + 1):
@@ -197,11 +202,26 @@ def main() -> None:
                 print(f"{name}, round {round_}: {rates[name][-1]:.3f} samples/s", flush=True)
         for name, tree in trees.items():
             runs = scratch / "runs" / name
-            val[name] = child(tree, "train.cli", "eval", str(runs / "fit0" / "checkpoint.pt"), "--dataset", str(data[name]),
-                              "-o", str(runs / "eval"), "--quiet")
+            val[name] = child(
+                tree,
+                "train.cli",
+                "eval",
+                str(runs / "fit0" / "checkpoint.pt"),
+                "--dataset",
+                str(data[name]),
+                "-o",
+                str(runs / "eval"),
+                "--quiet",
+            )
         breakdown = {d.type: step_breakdown(configs["this tree"], data["this tree"], 10, d) for d in devices}
-        inference_s, ap_s, frames, per_frame = ap_seconds(scratch / "runs" / "this tree" / "fit0" / "checkpoint.pt", data["this tree"])
-        paper = {(m, d.type): paper_rate(m, data["this tree"], args.paper_iterations, d) for m in ("single", "late") for d in devices}
+        inference_s, ap_s, frames, per_frame = ap_seconds(
+            scratch / "runs" / "this tree" / "fit0" / "checkpoint.pt", data["this tree"]
+        )
+        paper = {
+            (m, d.type): paper_rate(m, data["this tree"], args.paper_iterations, d)
+            for m in ("single", "late")
+            for d in devices
+        }
     median = {name: statistics.median(r) for name, r in rates.items()}
     fit_rows = [[name, args.iterations, " / ".join(f"{r:.3f}" for r in rates[name]), f"{median[name]:.3f}",
                  f"{median[name] / median['baseline']:.2f}"] for name in trees]
@@ -209,16 +229,19 @@ def main() -> None:
     step_rows = [[phase] + [f"{1000 * breakdown[d.type][phase]:.0f}" for d in devices] for phase in breakdown["cpu"]]
     paper_rows = [[m] + [f"{paper[(m, d.type)]:.2f}" for d in devices] for m in ("single", "late")]
     write_results(
-        "train", "Training speed (benchmarks/bench_train.py)",
+        "train",
+        "Training speed (benchmarks/bench_train.py)",
         machine(torch=torch.__version__) + f" Baseline: revision {args.baseline}, same data, same work, alternating.",
-        f"Compact late `fit` on paper_x1 (batch 2, one loader process, one torch thread), samples/s ({args.rounds} rounds):",
+        f"Compact late `fit` on paper_x1 (batch 2, one loader process, one torch thread), samples/s ({args.rounds} "
+        f"rounds):",
         markdown_table(["tree", "iterations", "each round", "median", "ratio"], fit_rows),
-        "Val pass, `simgen-train eval` of that checkpoint on the 203 val frames (inference, AP of all and visible boxes at "
-        "t, t-1, t-2, files), CPU seconds of the process:",
+        "Val pass, `simgen-train eval` of that checkpoint on the 203 val frames (inference, AP of all and visible "
+        "boxes at t, t-1, t-2, files), CPU seconds of the process:",
         markdown_table(["tree", "CPU s", "ratio"], val_rows),
         f"This tree's val pass in-process: inference {inference_s:.1f} CPU s, AP {ap_s:.2f} CPU s for {frames} frames "
         f"({per_frame:.0f} detections per frame).",
-        "A step of this tree by phase, ms (compact late, batch 2; CUDA synchronised at each phase for this table only):",
+        "A step of this tree by phase, ms (compact late, batch 2; CUDA synchronised at each phase for this table "
+        "only):",
         markdown_table(["phase"] + [d.type for d in devices], step_rows),
         f"Paper-size configs (train/configs/paper/), samples/s over {args.paper_iterations} steps after one warm-up, "
         "loader in this process; batch 2 on CPU, the configs' 8 on CUDA:",

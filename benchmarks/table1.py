@@ -20,11 +20,11 @@ import torch
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from train.checkpoint import load_checkpoint  # noqa: E402
-from train.config import load_config  # noqa: E402
-from train.evaluate import evaluate, mean_ap  # noqa: E402
-from train.fit import fit  # noqa: E402
-from train.models.detector import Detector  # noqa: E402
+from train.checkpoint import load_checkpoint
+from train.config import load_config
+from train.evaluate import evaluate, mean_ap
+from train.fit import fit
+from train.models.detector import Detector
 
 ROWS = (("single", "x2"), ("late", "x2"), ("single", "x1"), ("early", "x1"), ("late", "x1"))
 LABELS = {"single": "Single Frame", "early": "Early Fusion", "late": "Late Fusion"}
@@ -34,7 +34,9 @@ PAPER = {("single", "x2"): (56.46, 51.65), ("late", "x2"): (86.26, 83.30), ("sin
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--iterations", type=int, required=True, help="training iterations per model (batch from the config)")
+    parser.add_argument(
+        "--iterations", type=int, required=True, help="training iterations per model (batch from the config)"
+    )
     parser.add_argument("--workers", type=int, default=1, help="loader processes")
     parser.add_argument("--datasets", default="datasets", help="folder holding paper_x1/ and paper_x2/")
     parser.add_argument("--out", default="out/table1", help="runs (checkpoints, logs)")
@@ -49,7 +51,9 @@ def main() -> int:
     rows = []
     for model, density in order:
         config = load_config(ROOT / "train" / "configs" / f"{model}.yaml")
-        config = config.model_copy(update={"train": config.train.model_copy(update={"iterations": args.iterations, "workers": args.workers})})
+        config = config.model_copy(
+            update={"train": config.train.model_copy(update={"iterations": args.iterations, "workers": args.workers})}
+        )
         dataset = str(Path(args.datasets) / f"paper_{density}")
         run = out / f"{model}_{density}"
         start = time.perf_counter()
@@ -71,10 +75,32 @@ def write(rows: list, args: argparse.Namespace, results: Path, device: torch.dev
     rows = sorted(rows, key=lambda row: ROWS.index(row[:2]))  # the paper's order
     with open(results / "table1.csv", "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["model", "density", "bev_r40", "3d_r40", "bev_r11", "3d_r11", "val_truth", "fit_s", "train_samples_per_s", "eval_frames_per_s"])
+        w.writerow(
+            [
+                "model",
+                "density",
+                "bev_r40",
+                "3d_r40",
+                "bev_r11",
+                "3d_r11",
+                "val_truth",
+                "fit_s",
+                "train_samples_per_s",
+                "eval_frames_per_s",
+            ]
+        )
         for model, density, ap, truth, fit_s, sps, fps in rows:
-            w.writerow([model, density, *(f"{ap[k]:.2f}" for k in (("bev", 40), ("3d", 40), ("bev", 11), ("3d", 11))), truth,
-                        f"{fit_s:.0f}", f"{sps:.3f}", f"{fps:.3f}"])
+            w.writerow(
+                [
+                    model,
+                    density,
+                    *(f"{ap[k]:.2f}" for k in (("bev", 40), ("3d", 40), ("bev", 11), ("3d", 11))),
+                    truth,
+                    f"{fit_s:.0f}",
+                    f"{sps:.3f}",
+                    f"{fps:.3f}",
+                ]
+            )
     single_x2 = next((r[2]["3d", 40] for r in rows if r[:2] == ("single", "x2")), None)
     late_x2 = next((r[2]["3d", 40] for r in rows if r[:2] == ("late", "x2")), None)
     lines = [
@@ -88,12 +114,15 @@ def write(rows: list, args: argparse.Namespace, results: Path, device: torch.dev
         "| Method | BEV | 3D | Δ of 3D | paper BEV | paper 3D | train samples/s |",
         "|---|---|---|---|---|---|---|",
     ]
-    for model, density, ap, truth, fit_s, sps, fps in rows:
+    for model, density, ap, _truth, _fit_s, sps, _fps in rows:
         ref = {"single": single_x2, "late": late_x2}.get(model) if density == "x1" else None
         delta = f"{ap['3d', 40] - ref:+.2f}" if ref is not None else "–"
         paper = PAPER[model, density]
-        lines.append(f"| {LABELS[model]} (×{density[1]}) | {ap['bev', 40]:.2f} ({ap['bev', 11]:.2f}) | {ap['3d', 40]:.2f} ({ap['3d', 11]:.2f}) "
-                     f"| {delta} | {paper[0]:.2f} | {paper[1]:.2f} | {sps:.2f} |")
+        lines.append(
+            f"| {LABELS[model]} (×{density[1]}) | {ap['bev', 40]:.2f} ({ap['bev', 11]:.2f}) | {ap['3d', 40]:.2f} "
+            f"({ap['3d', 11]:.2f}) "
+            f"| {delta} | {paper[0]:.2f} | {paper[1]:.2f} | {sps:.2f} |"
+        )
     lines += ["", f"Ground-truth boxes at t in the val clip: {rows[-1][3]}."]
     (results / "table1.md").write_text("\n".join(lines) + "\n")
 

@@ -42,7 +42,7 @@ class LivoxTable:
 
     def excerpt_rows(self, seconds: float) -> int:
         """Rows of the first `seconds`, whole rounds of the lasers (HAP's last 3 rows make no round)."""
-        return min(int(round(seconds * self.shots_per_s)), self.rows) // self.lasers * self.lasers
+        return min(round(seconds * self.shots_per_s), self.rows) // self.lasers * self.lasers
 
     def file_name(self, full: bool) -> str:
         seconds = self.excerpt_rows(self.seconds if full else self.excerpt_s) / self.shots_per_s

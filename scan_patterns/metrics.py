@@ -12,7 +12,6 @@ equidistant projection, and the field of view is the disc rho <= fov / 2; in a b
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Union
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,7 +23,7 @@ CELL_SIZES_DEG = (0.1, 0.2, 0.3)
 BEAM_DIVERGENCE_DEG = (0.03, 0.28)  # Livox Mid-40 datasheet: horizontal (y) x vertical (z), full angles
 TARGET_SIZE_M = (0.5, 1.8)  # width x height of the upright person-sized target
 
-FieldOfView = Union[float, tuple[float, float, float, float]]  # cone angle, or (az min, max, el min, max); degrees
+FieldOfView = float | tuple[float, float, float, float]  # cone angle, or (az min, max, el min, max); degrees
 
 
 def projected_deg(dirs: NDArray) -> NDArray[np.float64]:
@@ -52,7 +51,12 @@ def _grid(fov: FieldOfView, cell_deg: float) -> tuple[NDArray[np.float64], int, 
     if np.ndim(fov) == 0:
         half = int(np.ceil(fov / 2.0 / cell_deg)) + 1  # grid of (2 half)^2 cells round the boresight
         centres = (np.arange(-half, half) + 0.5) * cell_deg
-        return np.zeros(2), half, (2 * half, 2 * half), (np.hypot(centres[:, None], centres[None, :]) <= fov / 2.0).ravel()
+        return (
+            np.zeros(2),
+            half,
+            (2 * half, 2 * half),
+            (np.hypot(centres[:, None], centres[None, :]) <= fov / 2.0).ravel(),
+        )
     az_lo, az_hi, el_lo, el_hi = fov
     size = (int(np.ceil((az_hi - az_lo) / cell_deg)), int(np.ceil((el_hi - el_lo) / cell_deg)))
     u = az_lo + (np.arange(size[0]) + 0.5) * cell_deg
@@ -152,7 +156,7 @@ def target_points_per_frame(
     s = np.divide(centre @ normal, facing, out=np.full(len(d), -1.0), where=facing > 1e-9)
     offset = d * s[:, None] - centre
     hit = (s > 0) & (np.abs(offset @ across) <= size_m[0] / 2) & (np.abs(offset[:, 2]) <= size_m[1] / 2)
-    frames = max(1, int(round(shots.duration_s * frame_rate_hz)))
+    frames = max(1, round(shots.duration_s * frame_rate_hz))
     frame = np.ceil((shots.t_s[hit] - shots.t0_s) * frame_rate_hz - 1e-6).astype(np.int64) - 1
     return np.bincount(np.clip(frame, 0, frames - 1), minlength=frames)
 
@@ -191,7 +195,9 @@ class PatternComparison:
             for t, x, y in zip(self.times_s, ca, cb):
                 lines.append(f"| coverage {cell:g} deg cells, T = {t:g} s | {x:.2%} | {y:.2%} | {x - y:+.2%} |")
         for (r, off), x, y in zip(self.targets, *self.target_points):
-            lines.append(f"| points/frame on target at {r:g} m, {off:g} deg off-axis | {x:.2f} | {y:.2f} | {x - y:+.2f} |")
+            lines.append(
+                f"| points/frame on target at {r:g} m, {off:g} deg off-axis | {x:.2f} | {y:.2f} | {x - y:+.2f} |"
+            )
         for rho, x, y in zip(self.radial[0].off_axis_deg, self.radial[0].shots_per_sr_s, self.radial[1].shots_per_sr_s):
             lines.append(f"| shots/sr/s at {rho:g} deg off-axis | {x:.4g} | {y:.4g} | {x - y:+.3g} |")
         return "\n".join(lines)

@@ -110,7 +110,9 @@ def check_pattern_file(path: Path) -> None:
         except (zipfile.BadZipFile, OSError, ValueError):
             raise ValueError(f"{path}: not an .npz archive") from None
         if unpacked > MAX_PATTERN_BYTES:
-            raise ValueError(f"{path}: unpacks to {unpacked:,} bytes, a pattern file may have at most {MAX_PATTERN_BYTES:,}")
+            raise ValueError(
+                f"{path}: unpacks to {unpacked:,} bytes, a pattern file may have at most {MAX_PATTERN_BYTES:,}"
+            )
 
 
 @functools.lru_cache(maxsize=8)
@@ -128,14 +130,18 @@ def load_pattern_file(source: str) -> PatternFile:
                     t = np.arange(1, len(az) + 1) / rate
                     az, zen = np.degrees(az), 90.0 - np.degrees(el)
                 else:
-                    t, az, zen = (np.asarray(data[k], np.float64).reshape(-1) for k in ("t_s", "azimuth_deg", "zenith_deg"))
+                    t, az, zen = (
+                        np.asarray(data[k], np.float64).reshape(-1) for k in ("t_s", "azimuth_deg", "zenith_deg")
+                    )
         else:
             t, az, zen = _read_csv(path)
     except (ValueError, KeyError, TypeError, OSError, EOFError, zipfile.BadZipFile, UnicodeDecodeError):
         raise ValueError(
             f"{path}: not a pattern file (.npz with t_s, azimuth_deg, zenith_deg, or CSV rows time,azimuth,zenith)"
         ) from None
-    if not len(t) == len(az) == len(zen) or not (np.isfinite(t).all() and np.isfinite(az).all() and np.isfinite(zen).all()):
+    if not len(t) == len(az) == len(zen) or not (
+        np.isfinite(t).all() and np.isfinite(az).all() and np.isfinite(zen).all()
+    ):
         raise ValueError(f"{path}: t_s, azimuth_deg and zenith_deg must be finite columns of one length")
     if len(t) < 2 or np.any(np.diff(t) <= 0):
         raise ValueError(f"{path}: needs at least 2 shots in increasing time order")
@@ -165,12 +171,16 @@ def _read_csv(path: Path) -> tuple[NDArray, NDArray, NDArray]:
     return data[:, 0], data[:, 1], data[:, 2]
 
 
-def directions(source: str, t_s: NDArray[np.float64], line: NDArray | None = None, lasers: int = 1) -> NDArray[np.float32]:
+def directions(
+    source: str, t_s: NDArray[np.float64], line: NDArray | None = None, lasers: int = 1
+) -> NDArray[np.float32]:
     """(N, 3) float32 head-frame directions of the file replayed at times `t_s`, shot i by laser
     line[i] of `lasers` (default all laser 0 of 1), looping with a warning."""
     pattern = load_pattern_file(source)
     if pattern.lasers not in (None, lasers):
-        raise ValueError(f"replay of {pattern.name}: the file interleaves {pattern.lasers} lasers, the head has {lasers}")
+        raise ValueError(
+            f"replay of {pattern.name}: the file interleaves {pattern.lasers} lasers, the head has {lasers}"
+        )
     rounds = len(pattern.t_s) // lasers  # rows of each laser in one loop
     n = rounds * lasers
     u = (np.asarray(t_s, np.float64) - pattern.t_s[0]) / pattern.dt_s  # position in the file, in shots

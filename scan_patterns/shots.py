@@ -42,7 +42,9 @@ class Shots:
         return self.t1_s - self.t0_s
 
 
-def make_shots(t_s: NDArray, dirs: NDArray, t0_s: float, t1_s: float, head: int = 0, line: NDArray | None = None) -> Shots:
+def make_shots(
+    t_s: NDArray, dirs: NDArray, t0_s: float, t1_s: float, head: int = 0, line: NDArray | None = None
+) -> Shots:
     """Shots of one head (sweep 0) from times and directions; `line` default all laser 0."""
     n = len(t_s)
     return Shots(

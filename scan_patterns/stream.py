@@ -56,7 +56,15 @@ def shots(sensor: SensorSpec, t0_s: float, t1_s: float, density: float = 1.0) ->
     for index, head in enumerate(sensor.heads):
         part = head_shots(head, t0_s, t1_s, density, index)
         if head.yaw_deg or head.pitch_deg:
-            part = Shots(part.t_s, rotate(part.dirs, head_rotation(head.yaw_deg, head.pitch_deg)), part.head, part.line, part.sweep, t0_s, t1_s)
+            part = Shots(
+                part.t_s,
+                rotate(part.dirs, head_rotation(head.yaw_deg, head.pitch_deg)),
+                part.head,
+                part.line,
+                part.sweep,
+                t0_s,
+                t1_s,
+            )
         parts.append(part)
     return concatenate(parts)
 
@@ -84,7 +92,9 @@ def frame_shots(
         raise ValueError(f"sweeps_per_frame must be in 1..255, got {sweeps_per_frame}")
     t0, t1 = frame_window(frame_index, frame_rate_hz)
     out = shots(sensor, t0, t1, density)
-    return Shots(out.t_s, out.dirs, out.head, out.line, sweep_index(out.t_s, t0, frame_rate_hz, sweeps_per_frame), t0, t1)
+    return Shots(
+        out.t_s, out.dirs, out.head, out.line, sweep_index(out.t_s, t0, frame_rate_hz, sweeps_per_frame), t0, t1
+    )
 
 
 def sweep_index(t_s: np.ndarray, t0_s: float, frame_rate_hz: float, sweeps_per_frame: int) -> np.ndarray:

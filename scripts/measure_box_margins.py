@@ -20,10 +20,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # this tree's packages, and tests.support's poses (a measurement, like benchmarks/)
 
-from simgen.body.mesh import body_meshes  # noqa: E402
-from simgen.labels.boxes import FACE_NAMES, boxes_from_keypoints, overhang  # noqa: E402
-from simgen.motion.clip_io import read_clip  # noqa: E402
-from tests.support.poses import PRESETS, keypoints, random_pose  # noqa: E402
+from simgen.body.mesh import body_meshes
+from simgen.labels.boxes import FACE_NAMES, boxes_from_keypoints, overhang
+from simgen.motion.clip_io import read_clip
+from tests.support.poses import PRESETS, keypoints, random_pose
 
 
 def main() -> None:

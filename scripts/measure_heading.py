@@ -24,11 +24,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from simgen.body.heading import heading, wrap_angle  # noqa: E402
-from simgen.motion.engine import capture_motion  # noqa: E402
-from simgen.pipeline.clip import engine_seed  # noqa: E402
-from simgen.scenario import load_scenario  # noqa: E402
-from simgen.vocab import KEYPOINT_INDEX  # noqa: E402
+from simgen.body.heading import heading, wrap_angle
+from simgen.motion.engine import capture_motion
+from simgen.pipeline.clip import engine_seed
+from simgen.scenario import load_scenario
+from simgen.vocab import KEYPOINT_INDEX
 
 WINDOW_S = 0.5  # the averaging window that separates turning from the stride's twist
 
@@ -69,17 +69,25 @@ def main() -> None:
     def pct(values: np.ndarray) -> str:
         return "median {:.1f}, p90 {:.1f}, p99 {:.1f}".format(*np.percentile(values, [50, 90, 99]))
 
-    print(f"{scenario.name} clip {args.clip}: {count} players, {frames} frames at {clip.capture_hz} Hz; one scan frame = {scan} steps")
+    print(
+        f"{scenario.name} clip {args.clip}: {count} players, {frames} frames at {clip.capture_hz} Hz; one scan frame = "
+        f"{scan} steps"
+    )
     print(f"heading change per scan frame, degrees: {pct(change)}")
     print(f"the {WINDOW_S:g} s average's change per scan frame: {pct(smooth_change)}")
-    print(f"residual about the {WINDOW_S:g} s average: rms {np.sqrt(np.mean(residual ** 2)):.1f} degrees; "
-          f"strongest frequencies {', '.join(f'{f:.2f}' for f in frequencies[np.argsort(spectrum[1:])[::-1][:3] + 1])} Hz")
+    print(
+        f"residual about the {WINDOW_S:g} s average: rms {np.sqrt(np.mean(residual**2)):.1f} degrees; "
+        f"strongest frequencies {', '.join(f'{f:.2f}' for f in frequencies[np.argsort(spectrum[1:])[::-1][:3] + 1])} Hz"
+    )
     print(f"shoulders against hips: rms twist {np.sqrt(np.mean(twist ** 2)):.1f} degrees")
     for low, high in ((0.0, 0.5), (0.5, 2.0), (2.0, 4.0), (4.0, 20.0)):
         chosen = (speed >= low) & (speed < high)
         print(f"  at {low:g}-{high:g} m/s ({chosen.mean():.0%} of samples): change per scan frame median "
               f"{np.median(change[chosen]):.1f}, p90 {np.percentile(change[chosen], 90):.1f} degrees")
-    print(f"second difference per capture step, degrees: median {np.median(second):.3f}, p99 {np.percentile(second, 99):.2f}")
+    print(
+        f"second difference per capture step, degrees: median {np.median(second):.3f}, "
+        f"p99 {np.percentile(second, 99):.2f}"
+    )
 
 
 if __name__ == "__main__":

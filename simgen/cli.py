@@ -31,7 +31,7 @@ DISK_ERRORS = {
 class _Parser(argparse.ArgumentParser):
     """argparse, but usage errors are one line (argparse already exits 2)."""
 
-    def error(self, message: str) -> None:  # noqa: D102 - argparse API
+    def error(self, message: str) -> None:
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
@@ -61,7 +61,11 @@ def dispatch(prog: str, args: argparse.Namespace) -> int:
             raise
         filename = error.filename or getattr(args, "output", None)
         where = f"{filename}: " if filename else ""
-        hint = " (files written so far are whole; `generate --resume` finishes a run)" if args.command == "generate" else ""
+        hint = (
+            " (files written so far are whole; `generate --resume` finishes a run)"
+            if args.command == "generate"
+            else ""
+        )
         print(f"{prog} {args.command}: error: {where}{DISK_ERRORS[error.errno]}{hint}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -14,7 +14,16 @@ import os
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_serializer, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
 
 import scan_patterns
 from scan_patterns.replay import OFFICIAL_FILES
@@ -65,7 +74,9 @@ class SceneConfig(_Strict):
 
     goals: bool = Field(True, description="Both goals: posts, crossbar and net.")
     net_transmission: float = Field(0.7, ge=0.0, le=1.0, description="Fraction of rays a goal net lets through.")
-    surroundings: bool = Field(False, description="Advertising boards round the pitch and a stand behind the far touchline.")
+    surroundings: bool = Field(
+        False, description="Advertising boards round the pitch and a stand behind the far touchline."
+    )
 
 
 class SensorPose(_Strict):
@@ -93,10 +104,15 @@ class ScanConfig(_Strict):
 
     frame_rate_hz: float = Field(10.0, gt=0.0, le=100.0, description="Frames per second.")
     density: float = Field(1.0, gt=0.0, le=64.0, description="Shots per second as a multiple of the real sensor's.")
-    sweeps_per_frame: int = Field(1, ge=1, le=16, description="Sweeps merged into one frame (the paper: two 20 Hz sweeps).")
-    frames: int | None = Field(None, ge=1, le=1_000_000, description="Frames per clip (default: as many as the motion allows).")
+    sweeps_per_frame: int = Field(
+        1, ge=1, le=16, description="Sweeps merged into one frame (the paper: two 20 Hz sweeps)."
+    )
+    frames: int | None = Field(
+        None, ge=1, le=1_000_000, description="Frames per clip (default: as many as the motion allows)."
+    )
     timing: Literal["sweep", "snapshot"] = Field(
-        "sweep", description="sweep: each shot meets the scene at its own time, as a real Livox scans (fast players smear); "
+        "sweep",
+        description="sweep: each shot meets the scene at its own time, as a real Livox scans (fast players smear); "
         "snapshot: every shot of a frame meets the scene as it is at the frame's label time (the paper samples the "
         "engine's depth map once per frame), and every point carries that time.",
     )
@@ -123,7 +139,7 @@ class DatasetConfig(_Strict):
     )
 
     @model_validator(mode="after")
-    def _images_for_kitti(self) -> "DatasetConfig":
+    def _images_for_kitti(self) -> DatasetConfig:
         if self.kitti_images and not dataset_format(self.format).placeholder_images:
             takers = " or ".join(formats_where(lambda f: f.placeholder_images))
             raise ValueError(f"dataset.kitti_images: placeholder images are for format {takers}, not {self.format}")
@@ -131,10 +147,13 @@ class DatasetConfig(_Strict):
 
 
 class NoiseConfig(_Strict):
-    """The sensor's imperfections (section `noise`; used by simgen.render.noise). Defaults: the Livox Mid-40 datasheet."""
+    """The sensor's imperfections (section `noise`; used by simgen.render.noise). Defaults: the Livox Mid-40
+    datasheet."""
 
     range_sigma_m: float = Field(0.02, ge=0, le=1, description="Gaussian range noise, 1 sigma, metres.")
-    angle_sigma_deg: float = Field(0.03, ge=0, le=1, description="Gaussian direction noise per axis across the beam, 1 sigma, degrees.")
+    angle_sigma_deg: float = Field(
+        0.03, ge=0, le=1, description="Gaussian direction noise per axis across the beam, 1 sigma, degrees."
+    )
     divergence_deg: tuple[Annotated[float, Field(ge=0, le=10)], Annotated[float, Field(ge=0, le=10)]] = Field(
         (0.03, 0.28), description="Full beam divergence (horizontal, vertical), degrees."
     )
@@ -146,10 +165,12 @@ class NoiseConfig(_Strict):
         90.0, gt=0, le=1000, description="Detection range at 10 % reflectivity; it grows as sqrt(reflectivity), metres."
     )
     dropout: float = Field(0.0, ge=0, lt=1, description="Probability that a return is lost at random.")
-    enabled: bool = Field(True, description="False: exact ranges and directions, no dropout (range limits still apply).")
+    enabled: bool = Field(
+        True, description="False: exact ranges and directions, no dropout (range limits still apply)."
+    )
 
     @model_validator(mode="after")
-    def _ranges_ordered(self) -> "NoiseConfig":
+    def _ranges_ordered(self) -> NoiseConfig:
         if self.min_range_m >= self.max_range_at_10pct_m:
             raise ValueError(
                 f"min_range_m {self.min_range_m:g} m is not below max_range_at_10pct_m {self.max_range_at_10pct_m:g} m"
@@ -164,7 +185,9 @@ class RisleyParamsConfig(_Strict):
     optics: Literal[tuple(FITTED)] | None = Field(None, description="Livox table whose fitted optics to start from.")
     wedge_deg: tuple[Annotated[float, Field(gt=0, lt=45)], Annotated[float, Field(gt=0, lt=45)]] | None = None
     index: float | None = Field(None, gt=1.0, le=4.0, description="Refractive index of both prisms.")
-    rpm: tuple[Annotated[float, Field(ge=-100_000, le=100_000)], Annotated[float, Field(ge=-100_000, le=100_000)]] | None = None
+    rpm: (
+        tuple[Annotated[float, Field(ge=-100_000, le=100_000)], Annotated[float, Field(ge=-100_000, le=100_000)]] | None
+    ) = None
     phase_deg: tuple[Annotated[float, Field(ge=-360, le=360)], Annotated[float, Field(ge=-360, le=360)]] | None = None
 
 
@@ -201,7 +224,9 @@ class ReplayParamsConfig(_Strict):
             raise ValueError(f"replay file '{file}': a relative path needs the scenario file's folder")
         resolved = (Path(base) / path if base is not None else path).resolve()
         if base is not None:  # read from a scenario file: only its folder and the listed ones
-            allowed = [Path(base).resolve()] + [Path(d).resolve() for d in os.environ.get(PATTERN_DIRS_ENV, "").split(":") if d]
+            allowed = [Path(base).resolve()] + [
+                Path(d).resolve() for d in os.environ.get(PATTERN_DIRS_ENV, "").split(":") if d
+            ]
             if not any(resolved == root or root in resolved.parents for root in allowed):
                 raise ValueError(f"replay file '{file}' is outside the scenario's folder and ${PATTERN_DIRS_ENV}")
         if not resolved.is_file():
@@ -224,7 +249,9 @@ class HeadConfig(_Strict):
     yaw_deg: float | None = Field(None, ge=-360, le=360)
     pitch_deg: float | None = Field(None, ge=-90, le=90)
     time_offset_s: float | None = Field(None, ge=0, le=1e6, description="How far ahead the head's pattern clock runs.")
-    lasers: int | None = Field(None, ge=1, le=255, description="Lasers taking turns: shot k fires laser (k - 1) mod lasers.")
+    lasers: int | None = Field(
+        None, ge=1, le=255, description="Lasers taking turns: shot k fires laser (k - 1) mod lasers."
+    )
 
     @field_validator("like")
     @classmethod
@@ -241,7 +268,7 @@ class HeadConfig(_Strict):
         return params
 
     @model_validator(mode="after")
-    def _pattern_params(self, info: ValidationInfo) -> "HeadConfig":
+    def _pattern_params(self, info: ValidationInfo) -> HeadConfig:
         if self.like is None and self.pattern is None:
             raise ValueError("a head needs 'pattern' (risley, rose, replay or rotors) or 'like' (a sensor preset)")
         pattern = self.pattern or scan_patterns.get_sensor(self.like).heads[0].pattern
@@ -289,8 +316,9 @@ class Scenario(_Strict):
     custom_sensors: list[CustomSensorConfig] = Field(
         default_factory=list,
         max_length=64,
-        description="Sensor presets of this scenario: {name, description, heads: [{like: PRESET | pattern: risley|rose|replay, "
-        "params, shots_per_s, fov_deg, yaw_deg, pitch_deg, time_offset_s}]} (scan_patterns.make_sensor).",
+        description="Sensor presets of this scenario: {name, description, heads: "
+        "[{like: PRESET | pattern: risley|rose|replay, params, shots_per_s, fov_deg, yaw_deg, pitch_deg, "
+        "time_offset_s}]} (scan_patterns.make_sensor).",
     )
     sensors: list[SensorConfig] = Field(default_factory=lambda: [SensorConfig()], min_length=1, max_length=16)
     scan: ScanConfig = ScanConfig()
@@ -322,15 +350,17 @@ class Scenario(_Strict):
         return self.scan.frames or math.floor(motion_s * self.scan.frame_rate_hz + 1e-9)
 
     @model_validator(mode="after")
-    def _presets_exist(self) -> "Scenario":
+    def _presets_exist(self) -> Scenario:
         known = set(scan_patterns.sensor_names()) | {sensor.name for sensor in self.custom_sensors}
         for i, sensor in enumerate(self.sensors):
             if sensor.preset not in known:
-                raise ValueError(f"sensors.{i}.preset: unknown sensor preset '{sensor.preset}' (known: {', '.join(sorted(known))})")
+                raise ValueError(
+                    f"sensors.{i}.preset: unknown sensor preset '{sensor.preset}' (known: {', '.join(sorted(known))})"
+                )
         return self
 
     @model_validator(mode="after")
-    def _motion_covers_the_frames(self) -> "Scenario":
+    def _motion_covers_the_frames(self) -> Scenario:
         motion_s = (self.motion.frames - 1) / self.motion.capture_hz
         if self.scan.frames is not None and self.scan.frames / self.scan.frame_rate_hz > motion_s + 1e-9:
             raise ValueError(
@@ -339,32 +369,36 @@ class Scenario(_Strict):
             )
         if self.frames_per_clip() < 1:
             raise ValueError(
-                f"no frames: motion.frames {self.motion.frames} at {self.motion.capture_hz} Hz give {motion_s:.2f} s of motion, "
-                f"less than one frame at scan.frame_rate_hz {self.scan.frame_rate_hz:g} (raise motion.frames or the frame rate)"
+                f"no frames: motion.frames {self.motion.frames} at {self.motion.capture_hz} Hz give {motion_s:.2f} s "
+                f"of motion, "
+                f"less than one frame at scan.frame_rate_hz {self.scan.frame_rate_hz:g} (raise motion.frames or the "
+                f"frame rate)"
             )
         most = dataset_format(self.dataset.format).max_frames_per_clip
         if most is not None and self.frames_per_clip() > most:
             raise ValueError(
-                f"scan.frames: {self.frames_per_clip()} frames per clip; the {self.dataset.format} format numbers at most "
-                f"{most} (lower scan.frames or motion.frames, or use more clips)"
+                f"scan.frames: {self.frames_per_clip()} frames per clip; the {self.dataset.format} format numbers at "
+                f"most {most} (lower scan.frames or motion.frames, or use more clips)"
             )
         return self
 
     @model_validator(mode="after")
-    def _shot_budget(self) -> "Scenario":
+    def _shot_budget(self) -> Scenario:
         shots_per_s = self.scan.density * sum(spec.shots_per_s for spec in self.sensor_specs())
         if shots_per_s > MAX_SHOTS_PER_S:
             raise ValueError(
-                f"shot budget: {len(self.sensors)} sensors at scan.density {self.scan.density:g} fire {shots_per_s:,.0f} shots/s, "
-                f"more than {MAX_SHOTS_PER_S:,} (lower scan.density, the number of sensors or custom heads' shots_per_s)"
+                f"shot budget: {len(self.sensors)} sensors at scan.density {self.scan.density:g} fire "
+                f"{shots_per_s:,.0f} shots/s, "
+                f"more than {MAX_SHOTS_PER_S:,} (lower scan.density, the number of sensors or custom heads' "
+                f"shots_per_s)"
             )
         shots_per_frame = shots_per_s / self.scan.frame_rate_hz
         frame_bytes = shots_per_frame * (BYTES_PER_SHOT + self.noise.subrays * BYTES_PER_RAY)
         if frame_bytes > MAX_FRAME_BYTES:
             raise ValueError(
                 f"shot budget: a frame of {shots_per_frame:,.0f} shots x {self.noise.subrays} subrays needs about "
-                f"{frame_bytes / 2**30:.1f} GiB, more than {MAX_FRAME_BYTES / 2**30:g} (lower noise.subrays or scan.density, "
-                f"or raise scan.frame_rate_hz)"
+                f"{frame_bytes / 2**30:.1f} GiB, more than {MAX_FRAME_BYTES / 2**30:g} (lower noise.subrays or "
+                f"scan.density, or raise scan.frame_rate_hz)"
             )
         return self
 

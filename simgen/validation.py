@@ -177,7 +177,9 @@ def parse_yaml(text: str, source: str) -> object:
         mark = getattr(error, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         problem = getattr(error, "problem", None) or "malformed YAML"
-        kind = "refused YAML" if isinstance(error, _Refused) or problem.startswith("duplicate key") else "malformed YAML"
+        kind = (
+            "refused YAML" if isinstance(error, _Refused) or problem.startswith("duplicate key") else "malformed YAML"
+        )
         raise UserError(f"{source}: {kind}{where}: {' '.join(str(problem).splitlines())}") from None
     except (ValueError, OverflowError, RecursionError) as error:  # e.g. an integer of 10,000 digits
         raise UserError(f"{source}: refused YAML: {' '.join(str(error).splitlines())[:120]}") from None

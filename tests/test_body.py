@@ -193,7 +193,10 @@ def test_parts_move_rigidly_on_the_engine_skeleton(motion_clip):
     rotation, origin = part_frames(kp)
     mesh = body_meshes(kp, teams)
     rebuilt = np.concatenate(
-        [np.einsum("hij,hvj->hvi", rotation[:, p], local) + origin[:, p, None] for p, (local, _, _) in enumerate(templates)],
+        [
+            np.einsum("hij,hvj->hvi", rotation[:, p], local) + origin[:, p, None]
+            for p, (local, _, _) in enumerate(templates)
+        ],
         axis=1,
     )
     np.testing.assert_allclose(rebuilt, mesh.vertices_m, atol=2e-4)

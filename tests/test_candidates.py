@@ -26,7 +26,9 @@ def sweep(rng, n, origins):
     """Rays in time order along a rose-like curve, as a sensor fires them, from one of `origins`."""
     phase = np.cumsum(rng.uniform(0.001, 0.01, n))
     azimuth, elevation = 0.6 * np.sin(3 * phase), -0.2 + 0.15 * np.cos(5 * phase)
-    directions = np.stack([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)], axis=1)
+    directions = np.stack(
+        [np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)], axis=1
+    )
     return origins[np.repeat(np.arange(len(origins)), -(-n // len(origins)))[:n]], directions
 
 
@@ -57,5 +59,7 @@ def test_a_sphere_round_the_sensor_is_a_candidate_of_every_ray():
     directions = rng.normal(size=(100, 3))
     directions /= np.linalg.norm(directions, axis=1, keepdims=True)
     origins = np.zeros((100, 3))
-    ray, _ = sphere_candidates(origins, directions, np.zeros(100, np.int64), np.full(100, np.inf), np.zeros((1, 1, 3)), np.ones((1, 1)))
+    ray, _ = sphere_candidates(
+        origins, directions, np.zeros(100, np.int64), np.full(100, np.inf), np.zeros((1, 1, 3)), np.ones((1, 1))
+    )
     assert sorted(ray) == list(range(100))

@@ -12,7 +12,9 @@ from tests.support import ROOT
 from tests.support.processes import HEAVY, imported_heavy
 
 
-@pytest.mark.parametrize("arguments", [("--help",), ("generate", "--help"), ("pattern", "--help"), ("validate", "scenarios/smoke.yaml")])
+@pytest.mark.parametrize(
+    "arguments", [("--help",), ("generate", "--help"), ("pattern", "--help"), ("validate", "scenarios/smoke.yaml")]
+)
 def test_help_and_validate_import_no_heavy_library(arguments):
     imported = imported_heavy(*arguments)
     assert imported & (set(HEAVY) | {"numba"}) == set()

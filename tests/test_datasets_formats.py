@@ -18,4 +18,6 @@ def test_every_registered_name_gives_the_format_of_that_name(name):
 def test_an_unknown_format_is_one_line_naming_the_formats():
     with pytest.raises(UserError) as error:
         dataset_format("las")
-    assert str(error.value) == "unknown dataset format 'las' (choose from parquet, kitti, kitti_tracking, openpcdet, mcap)"
+    assert (
+        str(error.value) == "unknown dataset format 'las' (choose from parquet, kitti, kitti_tracking, openpcdet, mcap)"
+    )

@@ -68,20 +68,22 @@ def test_missing_and_truncated_files_are_named(tmp_path):
     truncated = tmp_path / "training/velodyne/000002.bin"
     truncated.write_bytes(truncated.read_bytes()[:-16])
     data = simgen.datasets.open(tmp_path)
-    with pytest.raises(UserError, match="000001.bin: missing"):
+    with pytest.raises(UserError, match=r"000001\.bin: missing"):
         data.frame("clip_0000", 1)
-    with pytest.raises(UserError, match="000002.bin: .* bytes, manifest.json says"):
+    with pytest.raises(UserError, match=r"000002\.bin: .* bytes, manifest\.json says"):
         data.frame("clip_0000", 2)
 
 
 def test_manifest_missing_malformed_or_foreign(tmp_path):
-    with pytest.raises(UserError, match="no manifest.json, not a simgen dataset"):
+    with pytest.raises(UserError, match=r"no manifest\.json, not a simgen dataset"):
         simgen.datasets.open(tmp_path)
     (tmp_path / MANIFEST_NAME).write_text("{")
-    with pytest.raises(UserError, match="manifest.json: not a readable manifest"):
+    with pytest.raises(UserError, match=r"manifest\.json: not a readable manifest"):
         simgen.datasets.open(tmp_path)
     (tmp_path / MANIFEST_NAME).write_text(json.dumps({"schema_version": SCHEMA_VERSION + 1, "format": "parquet"}))
-    with pytest.raises(UserError, match=f"dataset schema version {SCHEMA_VERSION + 1}, this simgen reads {SCHEMA_VERSION}"):
+    with pytest.raises(
+        UserError, match=f"dataset schema version {SCHEMA_VERSION + 1}, this simgen reads {SCHEMA_VERSION}"
+    ):
         simgen.datasets.open(tmp_path)
     with pytest.raises(UserError, match="no such dataset directory"):
         simgen.datasets.open(tmp_path / "nowhere")

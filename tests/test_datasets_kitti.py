@@ -32,7 +32,15 @@ def test_calib_matches_the_conversion_kitti_tools_apply():
     uv = uvw[:, :2] / uvw[:, 2:]
     np.testing.assert_allclose(camera.image_boxes(box)[0], [*uv.min(0), *uv.max(0)])
     tracking = camera.calib_lines(True)
-    assert [line.split()[0] for line in tracking] == ["P0:", "P1:", "P2:", "P3:", "R_rect", "Tr_velo_cam", "Tr_imu_velo"]
+    assert [line.split()[0] for line in tracking] == [
+        "P0:",
+        "P1:",
+        "P2:",
+        "P3:",
+        "R_rect",
+        "Tr_velo_cam",
+        "Tr_imu_velo",
+    ]
 
 
 def test_2d_boxes_of_humanoids_are_tall_enough_for_kitti_evaluators():
@@ -76,7 +84,9 @@ def test_rotation_y_is_the_kitti_convention(yaw):
     box = np.array([[10.0, -5.0, 0.9, 1.0, 0.5, 1.8, yaw]], np.float32)
     fields = camera.kitti_boxes(box)
     expected = -float(box[0, 6]) - np.pi / 2
-    assert np.cos(fields["ry"][0]) == pytest.approx(np.cos(expected)) and np.sin(fields["ry"][0]) == pytest.approx(np.sin(expected))
+    assert np.cos(fields["ry"][0]) == pytest.approx(np.cos(expected)) and np.sin(fields["ry"][0]) == pytest.approx(
+        np.sin(expected)
+    )
     assert -np.pi < fields["ry"][0] <= np.pi
     np.testing.assert_array_equal(fields["location"][0], [5.0, 0.0, 10.0 + camera.CAMERA_DISTANCE_M])  # bottom centre
     np.testing.assert_array_equal(fields["dims"][0], np.array([1.8, 0.5, 1.0], np.float32))
@@ -103,7 +113,9 @@ def test_placeholder_images_have_the_virtual_cameras_size_and_are_listed(tmp_pat
 
     clips = [make_clip("clip_0000", 2, seed=0), make_clip("clip_0001", 3, seed=1)]
     records = [write_clip(tmp_path, "kitti", frames, sensors(), i) for i, frames in enumerate(clips)]
-    manifest = finish_dataset(tmp_path, "kitti", records, sensors(), {"name": "f", "dataset": {"kitti_images": True}}, 0)
+    manifest = finish_dataset(
+        tmp_path, "kitti", records, sensors(), {"name": "f", "dataset": {"kitti_images": True}}, 0
+    )
     images = sorted((tmp_path / "training" / "image_2").glob("*.png"))
     velodyne = sorted((tmp_path / "training" / "velodyne").glob("*.bin"))
     assert [p.stem for p in images] == [p.stem for p in velodyne] == ["000000", "000001", "010000", "010001", "010002"]
@@ -129,16 +141,17 @@ def test_the_openpcdet_card_gives_a_class_map_and_a_dataset_yaml_that_fit_the_da
     import re
 
     import yaml
-    from tests.support.datasets import write_dataset
 
     from simgen.datasets import openpcdet_config
+    from tests.support.datasets import write_dataset
 
     write_dataset(tmp_path, "openpcdet", [make_clip("clip_0000", 3)])
     card = (tmp_path / "README.md").read_text()
     config = yaml.safe_load(re.search(r"```yaml\n(.*?)```", card, re.S).group(1))
     assert config == openpcdet_config.custom_dataset_config()
     names = {line.split()[-1] for path in (tmp_path / "labels").glob("*.txt") for line in path.read_text().splitlines()}
-    assert names == {"Pedestrian", "Official"} and names <= set(config["MAP_CLASS_TO_KITTI"])  # no KeyError in evaluation
+    # no KeyError in evaluation
+    assert names == {"Pedestrian", "Official"} and names <= set(config["MAP_CLASS_TO_KITTI"])
     kitti_names = {"Car", "Van", "Truck", "Pedestrian", "Person_sitting", "Cyclist", "Tram", "Misc", "DontCare"}
     for officials in openpcdet_config.OFFICIAL_AS:
         mapping = openpcdet_config.class_map(officials)

@@ -18,8 +18,15 @@ from scipy.spatial.transform import Rotation
 
 import simgen.datasets
 from simgen.cli import main
-from simgen.datasets.ros2_bag import (BOXES_TOPIC, LIVOX_LAYOUT, SIMGEN_LAYOUT, TF_STATIC_TOPIC, XYZI_LAYOUT, cloud_array,
-                                     points_topic)
+from simgen.datasets.ros2_bag import (
+    BOXES_TOPIC,
+    LIVOX_LAYOUT,
+    SIMGEN_LAYOUT,
+    TF_STATIC_TOPIC,
+    XYZI_LAYOUT,
+    cloud_array,
+    points_topic,
+)
 from simgen.qa.sensors import sensor_geometry
 from simgen.scan.sensor_info import SensorInfo
 from tests.support.datasets import make_clip, sensors, write_dataset
@@ -55,7 +62,9 @@ def _mcap_messages(path):
     with path.open("rb") as stream:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
         summary = reader.get_summary()
-        messages = [(channel.topic, message) for _, channel, _, message in reader.iter_decoded_messages(log_time_order=True)]
+        messages = [
+            (channel.topic, message) for _, channel, _, message in reader.iter_decoded_messages(log_time_order=True)
+        ]
     return summary, messages
 
 
@@ -92,7 +101,9 @@ def test_every_point_and_box_matches_the_parquet_dataset(written, library):
                 np.testing.assert_array_equal(got["line"], want.line[mine])  # the laser, as livox_ros_driver2's line
                 np.testing.assert_array_equal(got["instance_id"], want.instance_id[mine])
                 assert np.all(np.abs(got["offset_time"] - want.time_offset_s[mine].astype(np.float64) * 1e9) <= 0.5)
-                np.testing.assert_array_equal(got["timestamp"], _ns(cloud.header.stamp) + got["offset_time"].astype(np.float64))
+                np.testing.assert_array_equal(
+                    got["timestamp"], _ns(cloud.header.stamp) + got["offset_time"].astype(np.float64)
+                )
             markers = by_topic[BOXES_TOPIC][index].markers
             assert markers[0].action == 3  # DELETEALL: the previous frame's boxes go
             cubes = [m for m in markers if m.ns == "boxes" and m.action == 0]
@@ -100,7 +111,9 @@ def test_every_point_and_box_matches_the_parquet_dataset(written, library):
             assert [m.id for m in cubes] == [int(t) for t in want.track_id] == [int(m.text) for m in texts]
             assert [m.text for m in cubes] == list(want.class_name)
             assert _ns(markers[0].header.stamp) == round(want.label_time_s * 1e9)
-            centres = np.array([[m.pose.position.x, m.pose.position.y, m.pose.position.z] for m in cubes]).reshape(-1, 3)
+            centres = np.array([[m.pose.position.x, m.pose.position.y, m.pose.position.z] for m in cubes]).reshape(
+                -1, 3
+            )
             sizes = np.array([[m.scale.x, m.scale.y, m.scale.z] for m in cubes]).reshape(-1, 3)
             np.testing.assert_array_equal(centres.astype(np.float32), want.boxes[:, :3])
             np.testing.assert_array_equal(sizes.astype(np.float32), want.boxes[:, 3:6])
@@ -158,8 +171,13 @@ def _stamps(messages) -> dict[str, list[int]]:
     """Header stamps (ns) by topic; a MarkerArray's are its first marker's."""
     out: dict[str, list[int]] = {}
     for topic, message in messages:
-        header = message.markers[0].header if topic == BOXES_TOPIC else message.transforms[0].header if topic == TF_STATIC_TOPIC \
+        header = (
+            message.markers[0].header
+            if topic == BOXES_TOPIC
+            else message.transforms[0].header
+            if topic == TF_STATIC_TOPIC
             else message.header
+        )
         out.setdefault(topic, []).append(_ns(header.stamp))
     return out
 
@@ -175,12 +193,25 @@ def test_every_channel_carries_rosbag2s_offered_qos_profiles(written, tmp_path):
         assert set(offered) == set(metadata) and TF_STATIC_TOPIC in offered and BOXES_TOPIC in offered
         for topic, (profile,) in offered.items():
             (written_yaml,) = yaml.safe_load(metadata[topic]["offered_qos_profiles"])  # rosbag2's keys, one profile
-            assert set(written_yaml) == {"history", "depth", "reliability", "durability", "deadline", "lifespan", "liveliness",
-                                         "liveliness_lease_duration", "avoid_ros_namespace_conventions"}
+            assert set(written_yaml) == {
+                "history",
+                "depth",
+                "reliability",
+                "durability",
+                "deadline",
+                "lifespan",
+                "liveliness",
+                "liveliness_lease_duration",
+                "avoid_ros_namespace_conventions",
+            }
             assert profile.reliability == QosReliability.RELIABLE and profile.history == QosHistory.KEEP_LAST
             # tf2 and RViz subscribe to /tf_static transient local: played back volatile, the poses would never arrive
             latched = QosDurability.TRANSIENT_LOCAL if topic == TF_STATIC_TOPIC else QosDurability.VOLATILE
-            assert profile.durability == latched and profile.depth >= 1 and (topic != TF_STATIC_TOPIC or profile.depth == 1)
+            assert (
+                profile.durability == latched
+                and profile.depth >= 1
+                and (topic != TF_STATIC_TOPIC or profile.depth == 1)
+            )
 
 
 def test_exports_of_one_clip_from_parquet_and_from_kitti_have_the_same_stamps(tmp_path, capsys):
@@ -194,7 +225,10 @@ def test_exports_of_one_clip_from_parquet_and_from_kitti_have_the_same_stamps(tm
     parquet, kitti = (_mcap_messages(tmp_path / f"{format}.mcap")[1] for format in ("parquet", "kitti"))
     stamps = _stamps(parquet)
     assert stamps[points_topic(sensors()[0].name)] == _stamps(kitti)["/simgen/points"]
-    assert stamps[BOXES_TOPIC] == _stamps(kitti)[BOXES_TOPIC] and stamps[TF_STATIC_TOPIC] == _stamps(kitti)[TF_STATIC_TOPIC]
+    assert (
+        stamps[BOXES_TOPIC] == _stamps(kitti)[BOXES_TOPIC]
+        and stamps[TF_STATIC_TOPIC] == _stamps(kitti)[TF_STATIC_TOPIC]
+    )
     want = [clip[i] for i in range(1, 4)]
     assert stamps[BOXES_TOPIC] == [round(f.label_time_s * 1e9) for f in want]  # boxes at the label time
     assert stamps[TF_STATIC_TOPIC] == [round(want[0].time_s * 1e9)]  # playback starts with the first frame
@@ -235,13 +269,21 @@ def test_the_livox_layout_is_the_drivers_26_byte_point_in_each_sensors_frame(wri
     poses = {t.child_frame_id: t.transform for t in tf.transforms}
     for info in SENSORS:
         transform = poses[info.name]
-        rotation = Rotation.from_quat([transform.rotation.x, transform.rotation.y, transform.rotation.z, transform.rotation.w])
+        rotation = Rotation.from_quat(
+            [transform.rotation.x, transform.rotation.y, transform.rotation.z, transform.rotation.w]
+        )
         origin = [transform.translation.x, transform.translation.y, transform.translation.z]
         for index, cloud in enumerate(by_topic[points_topic(info.name)]):
             # livox_ros_driver2's PointCloud2 (lddc.cpp): these fields, packed (LivoxPointXyzrtlt)
             assert [(f.name, f.offset, f.datatype, f.count) for f in cloud.fields] == [
-                ("x", 0, 7, 1), ("y", 4, 7, 1), ("z", 8, 7, 1), ("intensity", 12, 7, 1), ("tag", 16, 2, 1), ("line", 17, 2, 1),
-                ("timestamp", 18, 8, 1)]
+                ("x", 0, 7, 1),
+                ("y", 4, 7, 1),
+                ("z", 8, 7, 1),
+                ("intensity", 12, 7, 1),
+                ("tag", 16, 2, 1),
+                ("line", 17, 2, 1),
+                ("timestamp", 18, 8, 1),
+            ]
             assert cloud.point_step == 26 and cloud.header.frame_id == info.name and not cloud.is_bigendian
             got, want = cloud_array(cloud, LIVOX_LAYOUT), parquet.frame("clip_0000", index)
             mine = want.sensor == info.sensor_id
@@ -249,4 +291,6 @@ def test_the_livox_layout_is_the_drivers_26_byte_point_in_each_sensors_frame(wri
             np.testing.assert_allclose(in_pitch, want.points_m[mine], rtol=0, atol=2e-5)  # float32 metres within 70 m
             np.testing.assert_array_equal(got["line"], want.line[mine])
             np.testing.assert_array_equal(got["intensity"], want.intensity[mine])
-            assert np.all(np.abs(got["timestamp"] - (want.time_s + want.time_offset_s[mine].astype(np.float64)) * 1e9) <= 1)
+            assert np.all(
+                np.abs(got["timestamp"] - (want.time_s + want.time_offset_s[mine].astype(np.float64)) * 1e9) <= 1
+            )

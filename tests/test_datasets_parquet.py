@@ -38,7 +38,9 @@ def root(tmp_path_factory):
 
 def test_duckdb_counts_the_points(root):
     assert duckdb.sql(f"select count(*) from '{root}/points/**/*.parquet'").fetchall() == [(POINTS,)]
-    per_clip = duckdb.sql(f"select clip, count(*) from '{root}/boxes/**/*.parquet' group by clip order by clip").fetchall()
+    per_clip = duckdb.sql(
+        f"select clip, count(*) from '{root}/boxes/**/*.parquet' group by clip order by clip"
+    ).fetchall()
     assert per_clip == [(frames[0].clip, sum(len(f.labels.boxes) for f in frames)) for frames in CLIPS]
 
 
@@ -68,11 +70,18 @@ def test_duckdb_polars_and_pandas_find_every_columns_unit_in_the_units_table(roo
     rows = duckdb.sql(f"select table_name, column_name, unit, doc from '{root}/units/*.parquet'").fetchall()
     assert len(rows) == len(want) and {(t, c): (u, d) for t, c, u, d in rows} == want
     assert {(t, c): u for t, c, u, _ in rows}[("points", "time_offset_s")] == "s"
-    assert pl.read_parquet(f"{root}/units/*.parquet").filter(pl.col("table_name") == "boxes").height == len(TABLES["boxes"])
-    assert pd.read_parquet(root / "units").set_index(["table_name", "column_name"]).loc[("boxes", "yaw"), "unit"] == "rad"
+    assert pl.read_parquet(f"{root}/units/*.parquet").filter(pl.col("table_name") == "boxes").height == len(
+        TABLES["boxes"]
+    )
+    assert (
+        pd.read_parquet(root / "units").set_index(["table_name", "column_name"]).loc[("boxes", "yaw"), "unit"] == "rad"
+    )
     listed = [f["path"] for f in json.loads((root / MANIFEST_NAME).read_text())["files"]]
     assert "units/part-0.parquet" in listed
-    assert "`duckdb -c \"select * from 'units/*.parquet' where table_name = 'points'\"`" in (root / "README.md").read_text()
+    assert (
+        "`duckdb -c \"select * from 'units/*.parquet' where table_name = 'points'\"`"
+        in (root / "README.md").read_text()
+    )
 
 
 def test_every_file_carries_its_clip_and_frame(root, tmp_path):
@@ -90,7 +99,9 @@ def test_every_file_carries_its_clip_and_frame(root, tmp_path):
                 "boxes": [f.index for f in frames for _ in range(len(f.labels.boxes))],
             }[table]
             assert keys["frame"].tolist() == expected and len(keys) == len(expected)
-    per_clip = duckdb.sql(f"select clip, count(distinct frame) from '{root}/frames/*/*.parquet' group by clip order by clip").fetchall()
+    per_clip = duckdb.sql(
+        f"select clip, count(distinct frame) from '{root}/frames/*/*.parquet' group by clip order by clip"
+    ).fetchall()
     assert per_clip == [(frames[0].clip, len(frames)) for frames in CLIPS]
 
 
@@ -120,7 +131,9 @@ def test_a_table_of_another_schema_version_is_rejected(tmp_path):
         if entry["path"] == relative:
             entry.update(bytes=(tmp_path / relative).stat().st_size, sha256=sha256_file(tmp_path / relative))
     (tmp_path / MANIFEST_NAME).write_text(json.dumps(manifest))
-    with pytest.raises(UserError, match=rf"part-0.parquet: dataset schema version 99, this simgen reads {SCHEMA_VERSION}$"):
+    with pytest.raises(
+        UserError, match=rf"part-0.parquet: dataset schema version 99, this simgen reads {SCHEMA_VERSION}$"
+    ):
         simgen.datasets.open(tmp_path).frame("clip_0000", 0)
 
 
@@ -128,11 +141,10 @@ def test_partial_clips_read_back_and_rewritten_give_the_same_bytes(tmp_path, mon
     """What `simgen generate` does with a clip's shards: each shard streams its frame range into a
     partial clip; the partial clips, read back in order, stream into the final files, whose bytes
     must be those of the clip written in one go (row groups of frames and boxes spanning shards)."""
-    from tests.support.datasets import make_clip, sensors
-
     from simgen.datasets import parquet
     from simgen.datasets.parquet import labelled_frames
     from simgen.datasets.write import ClipWriter, write_clip
+    from tests.support.datasets import make_clip, sensors
 
     monkeypatch.setattr(parquet, "FRAMES_PER_GROUP", 4)  # groups of frames and boxes cross the shards
     monkeypatch.setattr(parquet, "POINTS_FRAMES_PER_GROUP", 2)  # and so do groups of points
@@ -154,9 +166,8 @@ def test_partial_clips_read_back_and_rewritten_give_the_same_bytes(tmp_path, mon
 
 
 def test_frames_read_in_any_order_from_row_groups_of_several_frames(tmp_path, monkeypatch):
-    from tests.support.datasets import make_clip
-
     from simgen.datasets import parquet
+    from tests.support.datasets import make_clip
 
     monkeypatch.setattr(parquet, "POINTS_FRAMES_PER_GROUP", 3)  # 11 frames: groups of 3, 3, 3 and 2
     frames = make_clip("clip_0000", 11, points=40, seed=4)
@@ -177,11 +188,13 @@ def test_point_counts_that_disagree_with_the_points_are_refused(tmp_path):
     counts = table["num_points"].to_numpy().copy()
     counts[0], counts[1] = counts[0] + 1, counts[1] - 1  # same total in the row group: only the frames' split is wrong
     index = table.schema.get_field_index("num_points")
-    pq.write_table(table.set_column(index, table.schema.field(index), pa.array(counts, pa.int32())), tmp_path / relative)
+    pq.write_table(
+        table.set_column(index, table.schema.field(index), pa.array(counts, pa.int32())), tmp_path / relative
+    )
     manifest = json.loads((tmp_path / MANIFEST_NAME).read_text())
     for entry in manifest["files"]:
         if entry["path"] == relative:
             entry.update(bytes=(tmp_path / relative).stat().st_size, sha256=sha256_file(tmp_path / relative))
     (tmp_path / MANIFEST_NAME).write_text(json.dumps(manifest))
-    with pytest.raises(UserError, match="frame 0's points are not where the frames table counts them$"):
+    with pytest.raises(UserError, match=r"frame 0's points are not where the frames table counts them$"):
         simgen.datasets.open(tmp_path).frame("clip_0000", 0)

@@ -71,12 +71,16 @@ def test_the_card_names_replay_files_without_their_folders(tmp_path):
     from simgen.datasets import finish_dataset, write_clip
 
     pattern = str(tmp_path / "patterns" / "mine.npz")
-    scenario = {"name": "mine", "custom_sensors": [{"name": "mine", "heads": [{"pattern": "replay", "params": {"file": pattern}}]}]}
+    scenario = {
+        "name": "mine",
+        "custom_sensors": [{"name": "mine", "heads": [{"pattern": "replay", "params": {"file": pattern}}]}],
+    }
     records = [write_clip(tmp_path / "d", "kitti", CLIPS[0], sensors(), 0)]
     manifest = finish_dataset(tmp_path / "d", "kitti", records, sensors(), scenario, 1)
     card = (tmp_path / "d" / "README.md").read_text()
     assert '"file": "mine.npz"' in card and str(tmp_path) not in card
-    assert manifest.scenario["custom_sensors"][0]["heads"][0]["params"]["file"] == pattern  # the manifest keeps the path
+    # the manifest keeps the path
+    assert manifest.scenario["custom_sensors"][0]["heads"][0]["params"]["file"] == pattern
 
 
 def test_parquet_keeps_everything_the_simulator_made(datasets):

@@ -1,4 +1,5 @@
-"""train.data and the head's target assigner: track matching, one augmentation for all frames, crop, pillars, targets."""
+"""train.data and the head's target assigner: track matching, one augmentation for all frames, crop, pillars,
+targets."""
 
 import math
 
@@ -42,11 +43,19 @@ def test_boxes_before_a_placement_are_masked(tmp_path):
     from tests.support.datasets import make_clip, write_dataset
 
     frames = make_clip("clip_0000", 6, humanoids=4)
-    frames = [replace(f, labels=replace(f.labels, discontinuity=np.array([f.index == 3, False, False, False]))) for f in frames]
+    frames = [
+        replace(f, labels=replace(f.labels, discontinuity=np.array([f.index == 3, False, False, False])))
+        for f in frames
+    ]
     write_dataset(tmp_path, "parquet", [frames])
     data = simgen.datasets.open(tmp_path)
     config = tiny_config("late")
-    for t, placed_mask in ((2, [True, True, True]), (3, [False, False, True]), (4, [False, True, True]), (5, [True, True, True])):
+    for t, placed_mask in (
+        (2, [True, True, True]),
+        (3, [False, False, True]),
+        (4, [False, True, True]),
+        (5, [True, True, True]),
+    ):
         sample = load_sample(data, "clip_0000", t, config)
         one = list(sample.track_id).index(1)
         assert sample.box_mask[one].tolist() == placed_mask, t
@@ -87,7 +96,10 @@ def test_augmentation_moves_every_frame_and_box_together(seed):
     for k in range(3):
         for g in range(2):
             rows = slice(20 * g, 20 * g + 20)
-            old, new = _local(before.points[k][rows], before.boxes[g, k]), _local(after.points[k][rows], after.boxes[g, k])
+            old, new = (
+                _local(before.points[k][rows], before.boxes[g, k]),
+                _local(after.points[k][rows], after.boxes[g, k]),
+            )
             # A point's place in its box is kept up to the scale, and up to the mirror across the box's axis.
             np.testing.assert_allclose(np.abs(new), np.abs(old) * scale, atol=1e-4)
     np.testing.assert_array_equal(after.points[0][:, 3], before.points[0][:, 3])
@@ -115,8 +127,14 @@ def test_pillar_cells_and_early_time_channel():
 
 def test_box_coder_round_trip_and_direction():
     rng = np.random.default_rng(2)
-    anchors = np.column_stack([rng.uniform(-5, 5, (6, 3)), np.full((6, 3), [0.8, 0.8, 1.7]), rng.choice([0, np.pi / 2], 6)]).astype(np.float32)
-    boxes = np.column_stack([rng.uniform(-5, 5, (18, 3)), rng.uniform(0.4, 1.2, (18, 3)), rng.uniform(-3, 3, 18)]).reshape(6, 3, 7).astype(np.float32)
+    anchors = np.column_stack(
+        [rng.uniform(-5, 5, (6, 3)), np.full((6, 3), [0.8, 0.8, 1.7]), rng.choice([0, np.pi / 2], 6)]
+    ).astype(np.float32)
+    boxes = (
+        np.column_stack([rng.uniform(-5, 5, (18, 3)), rng.uniform(0.4, 1.2, (18, 3)), rng.uniform(-3, 3, 18)])
+        .reshape(6, 3, 7)
+        .astype(np.float32)
+    )
     back = decode(torch.from_numpy(anchors), torch.from_numpy(encode(anchors, boxes))).numpy()
     np.testing.assert_allclose(back, boxes, atol=1e-5)
     offset = 0.78539
@@ -163,10 +181,11 @@ def test_no_training_window_shares_a_frame_with_a_val_window(tmp_path, protocol)
     """Both splits: train and val windows (t-2..t) never share a frame; `frame` holds out about one clip's
     frames spread over every clip, `clip` whole clips."""
     from tests.support.datasets import make_clip, write_dataset
-
     from train.data import sample_keys
 
-    write_dataset(tmp_path, "parquet", [make_clip(f"clip_{i:04d}", 40, points=50, humanoids=2, seed=i) for i in range(4)])
+    write_dataset(
+        tmp_path, "parquet", [make_clip(f"clip_{i:04d}", 40, points=50, humanoids=2, seed=i) for i in range(4)]
+    )
     data = simgen.datasets.open(tmp_path)
     train, val = sample_keys(data, "train", protocol), sample_keys(data, "val", protocol)
 

@@ -22,7 +22,9 @@ def _batch(config, model, samples=2):
     items: list[Encoded] = []
     for _ in range(samples):
         points = tuple(
-            np.column_stack([rng.uniform([-16, -24, 0], [16, 8, 2], (500, 3)), rng.uniform(0, 1, 500)]).astype(np.float32)
+            np.column_stack([rng.uniform([-16, -24, 0], [16, 8, 2], (500, 3)), rng.uniform(0, 1, 500)]).astype(
+                np.float32
+            )
             for _ in range(config.model.fusion.input_frames)
         )
         boxes = np.tile(np.array([1.0, -5.0, 0.9, 0.8, 0.6, 1.8, 0.3], np.float32), (1, 3, 1))
@@ -63,7 +65,9 @@ def test_late_fusion_convolves_three_frames_into_one_without_temporal_padding():
 
 
 def test_nms_keeps_the_best_of_overlapping_boxes():
-    boxes = np.array([[0, 0, 1, 0.8, 0.6, 1.8, 0], [0.1, 0, 1, 0.8, 0.6, 1.8, 0], [3, 0, 1, 0.8, 0.6, 1.8, 0]], np.float32)
+    boxes = np.array(
+        [[0, 0, 1, 0.8, 0.6, 1.8, 0], [0.1, 0, 1, 0.8, 0.6, 1.8, 0], [3, 0, 1, 0.8, 0.6, 1.8, 0]], np.float32
+    )
     scores = np.array([0.5, 0.9, 0.7], np.float32)
     assert nms_bev(boxes, scores, 0.2, 10).tolist() == [1, 2]
     assert nms_bev(boxes, scores, 0.2, 1).tolist() == [1]
@@ -119,8 +123,11 @@ def test_every_part_name_a_config_allows_has_a_builder():
     def names(section) -> set[str]:
         return set(get_args(section.model_fields["name"].annotation))
 
-    fusions = set(load_config("train/configs/late.yaml").model_json_schema()["$defs"]["ModelConfig"]["properties"]["fusion"]
-                  ["discriminator"]["mapping"])
+    fusions = set(
+        load_config("train/configs/late.yaml").model_json_schema()["$defs"]["ModelConfig"]["properties"]["fusion"][
+            "discriminator"
+        ]["mapping"]
+    )
     assert fusions == set(FUSIONS.builders) == {"none", "early", "late"}
     assert names(PillarEncoderConfig) == set(PILLAR_ENCODERS.builders)
     assert names(Backbone2dConfig) == set(BACKBONES_2D.builders)
@@ -177,10 +184,14 @@ def test_paper_configs_have_the_papers_sizes_and_train_at_tiny_range():
 
 
 def test_scaled_inputs_bring_every_decoration_to_unit_size():
-    """`scale_inputs`: absolute x, y (tens of metres) no longer dwarf the pillar offsets (centimetres) and the time channel."""
+    """`scale_inputs`: absolute x, y (tens of metres) no longer dwarf the pillar offsets (centimetres) and the time
+    channel."""
     raw = tiny_config("early").model_dump(mode="json")
     raw["model"]["pillar_encoder"]["scale_inputs"] = True
-    scaled, plain = build_detector(parse_config(raw)).pillar_encoder, build_detector(tiny_config("early")).pillar_encoder
+    scaled, plain = (
+        build_detector(parse_config(raw)).pillar_encoder,
+        build_detector(tiny_config("early")).pillar_encoder,
+    )
     seen = {}
     for name, encoder in (("scaled", scaled), ("plain", plain)):
         encoder.linear.register_forward_hook(lambda module, args, out, name=name: seen.update({name: args[0]}))
@@ -189,7 +200,9 @@ def test_scaled_inputs_bring_every_decoration_to_unit_size():
                               rng.integers(-2, 1, 400)]).astype(np.float32)
     from train.data import pillar_cells
 
-    pillar, point_pillar = (torch.from_numpy(a) for a in np.unique(pillar_cells(points[:, :3], tiny_config("early")), return_inverse=True))
+    pillar, point_pillar = (
+        torch.from_numpy(a) for a in np.unique(pillar_cells(points[:, :3], tiny_config("early")), return_inverse=True)
+    )
     for encoder in (scaled, plain):
         encoder(torch.from_numpy(points), pillar, point_pillar, 1)
     span = seen["scaled"].abs().amax(dim=0)

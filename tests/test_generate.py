@@ -65,10 +65,16 @@ def test_other_formats_round_trip_to_the_parquet_frames(parquet_dataset, tmp_pat
             np.testing.assert_array_equal(a.intensity, b.intensity)
             np.testing.assert_allclose(a.boxes[:, :6], b.boxes[:, :6], rtol=0, atol=1e-6)
             np.testing.assert_allclose(np.cos(a.boxes[:, 6] - b.boxes[:, 6]), 1.0, atol=1e-6)
-            tolerance = 0.5e-9 if fmt == "mcap" else 0.0  # bag stamps are whole nanoseconds; the others' times are exact
-            assert a.time_s == pytest.approx(b.time_s, abs=tolerance) and a.label_time_s == pytest.approx(b.label_time_s, abs=tolerance)
+            # bag stamps are whole nanoseconds; the others' times are exact
+            tolerance = 0.5e-9 if fmt == "mcap" else 0.0
+            assert a.time_s == pytest.approx(b.time_s, abs=tolerance) and a.label_time_s == pytest.approx(
+                b.label_time_s, abs=tolerance
+            )
     if fmt == "kitti":  # the same clip exported from both: the same stamps
-        stamps = [_bag_stamps(tmp_path / f"{name}.mcap", dataset) for name, dataset in (("parquet", parquet_dataset[0]), ("kitti", tmp_path / fmt))]
+        stamps = [
+            _bag_stamps(tmp_path / f"{name}.mcap", dataset)
+            for name, dataset in (("parquet", parquet_dataset[0]), ("kitti", tmp_path / fmt))
+        ]
         assert stamps[0] == stamps[1] and len(stamps[0]) == 2 * 6 + 1
 
 
@@ -78,9 +84,17 @@ def _bag_stamps(bag, dataset) -> list[tuple[str, int, int]]:
     assert result.returncode == 0, result.stderr
     out = []
     with bag.open("rb") as stream:
-        for _, channel, message, decoded in make_reader(stream, decoder_factories=[DecoderFactory()]).iter_decoded_messages():
+        for _, channel, message, decoded in make_reader(
+            stream, decoder_factories=[DecoderFactory()]
+        ).iter_decoded_messages():
             kind = channel.topic.rsplit("/", 1)[-1]  # points, boxes, tf_static
-            header = decoded.markers[0].header if kind == "boxes" else decoded.transforms[0].header if kind == "tf_static" else decoded.header
+            header = (
+                decoded.markers[0].header
+                if kind == "boxes"
+                else decoded.transforms[0].header
+                if kind == "tf_static"
+                else decoded.header
+            )
             out.append((kind, message.log_time, header.stamp.sec * 1_000_000_000 + header.stamp.nanosec))
     return out
 
@@ -143,7 +157,8 @@ def test_killed_in_the_middle_of_a_clip_resumes_its_shards(parquet_dataset, tmp_
     sharded = ("--frames", "6", "--clips", "2", "--shard-frames", "2")
     kill_when_recorded(out, "shards/*/*.json", *sharded)
     assert not list((out / ".simgen" / "clips").glob("*.json"))  # killed in the middle of clip 0
-    assert (out / ".simgen" / "motion" / "0000.json").exists()  # its capture is kept (the plan is written last), and its first shard
+    # its capture is kept (the plan is written last), and its first shard
+    assert (out / ".simgen" / "motion" / "0000.json").exists()
     resumed = run_simgen("generate", SMOKE, "-o", out, *sharded, "--resume")
     assert resumed.returncode == 0, resumed.stderr[-2000:]
     assert manifest_files(out) == manifest_files(parquet_dataset[0])
@@ -152,7 +167,8 @@ def test_killed_in_the_middle_of_a_clip_resumes_its_shards(parquet_dataset, tmp_
 
 def test_a_second_run_into_the_same_directory_is_refused(tmp_path):
     out = tmp_path / "locked"
-    command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), "--frames", "6", "--clips", "6"]
+    command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out),
+               "--frames", "6", "--clips", "6"]
     first = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.time() + 60
@@ -172,9 +188,12 @@ def test_overwrite_keeps_its_run_state_inside_the_output(tmp_path):
     # an --overwrite of a finished dataset once wrote its resume record to ./shards in the caller's folder
     out, cwd = tmp_path / "dataset", tmp_path / "elsewhere"
     cwd.mkdir()
-    command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), "--frames", "3", "--overwrite"]
+    command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out),
+               "--frames", "3", "--overwrite"]
     for _ in range(2):
-        done = subprocess.run(command, cwd=cwd, capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+        done = subprocess.run(
+            command, cwd=cwd, capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)}
+        )
         assert done.returncode == 0, done.stderr
     assert list(cwd.iterdir()) == []
     assert (out / "manifest.json").is_file() and not (out / ".simgen").exists()

@@ -53,8 +53,8 @@ def _run(*arguments) -> tuple[int, str, str]:
 # --- scenarios ------------------------------------------------------------------------------------
 
 LETTERS = st.text(alphabet="qwxz", min_size=1, max_size=6)  # no number, bool or null YAML or pydantic would read
-WRONG_TYPE = st.one_of(LETTERS, st.lists(st.integers(), min_size=1, max_size=3), st.just({"k": 1}), st.just(float("nan")),
-                       st.just(float("inf")), st.just(float("-inf")))
+WRONG_TYPE = st.one_of(LETTERS, st.lists(st.integers(), min_size=1, max_size=3), st.just({"k": 1}),
+                       st.just(float("nan")), st.just(float("inf")), st.just(float("-inf")))
 
 
 def _outside(lo: float, hi: float, integer: bool, optional: bool = False):
@@ -69,10 +69,14 @@ def _outside(lo: float, hi: float, integer: bool, optional: bool = False):
 
 
 BOOL_BAD = st.one_of(LETTERS, st.integers(2, 10**6), st.lists(st.booleans(), min_size=1), st.just({"k": True}))
-NAME_BAD = st.one_of(st.text(min_size=1, max_size=10).map(lambda s: s + " /"), st.integers(), st.lists(LETTERS, min_size=1), st.none())
+NAME_BAD = st.one_of(
+    st.text(min_size=1, max_size=10).map(lambda s: s + " /"), st.integers(), st.lists(LETTERS, min_size=1), st.none()
+)
 FIELDS = {  # (section, key): bad values
     ("motion", "frames"): _outside(1, 1_000_000, True),
-    ("motion", "capture_hz"): st.one_of(st.integers(-1000, 1000).filter(lambda v: v not in (10, 20, 25, 50, 100)), WRONG_TYPE),
+    ("motion", "capture_hz"): st.one_of(
+        st.integers(-1000, 1000).filter(lambda v: v not in (10, 20, 25, 50, 100)), WRONG_TYPE
+    ),
     ("motion", "skip_s"): _outside(0, 3600, False),
     ("motion", "left_difficulty"): _outside(0, 1, False, optional=True),
     ("motion", "right_difficulty"): _outside(0, 1, False, optional=True),
@@ -93,7 +97,8 @@ FIELDS = {  # (section, key): bad values
     ("noise", "enabled"): BOOL_BAD,
     ("noise", "divergence_deg"): st.one_of(
         st.tuples(_outside(0, 10, False).filter(lambda v: v is not None), st.floats(0, 10)).map(list),
-        st.lists(st.floats(0, 10), max_size=5).filter(lambda v: len(v) != 2), WRONG_TYPE.filter(lambda v: not isinstance(v, list)),
+        st.lists(st.floats(0, 10), max_size=5).filter(lambda v: len(v) != 2),
+        WRONG_TYPE.filter(lambda v: not isinstance(v, list)),
     ),
     ("dataset", "clips"): _outside(1, 100_000, True),
     ("dataset", "format"): st.one_of(LETTERS, st.integers(), st.none()),
@@ -109,7 +114,9 @@ PARAMS = {
         st.fixed_dictionaries({"index": _outside(1.000001, 4, False, optional=True)}),
         st.fixed_dictionaries({"wedge_deg": st.tuples(_outside(1e-9, 44.999, False), st.just(18.0)).map(list)}),
         st.fixed_dictionaries({"rpm": st.lists(st.floats(-1e5, 1e5), max_size=4).filter(lambda v: len(v) != 2)}),
-        st.fixed_dictionaries({"phase_deg": st.one_of(LETTERS, st.lists(st.floats(0, 1), min_size=3, max_size=4), st.just({"k": 1}))}),
+        st.fixed_dictionaries(
+            {"phase_deg": st.one_of(LETTERS, st.lists(st.floats(0, 1), min_size=3, max_size=4), st.just({"k": 1}))}
+        ),
     ),
     "rose": st.one_of(
         st.fixed_dictionaries({"k": _outside(1e-9, 1000, False, optional=True)}),
@@ -141,7 +148,9 @@ def _custom_sensor_case(draw) -> tuple[str, dict]:
     elif kind == "like":
         sensor["heads"] = [{"like": draw(st.one_of(LETTERS, st.integers(), st.just("custom")))}]
     elif kind == "no pattern":
-        sensor["heads"] = [draw(st.fixed_dictionaries({}, optional={"fov_deg": st.floats(1, 90), "yaw_deg": st.floats(-10, 10)}))]
+        sensor["heads"] = [
+            draw(st.fixed_dictionaries({}, optional={"fov_deg": st.floats(1, 90), "yaw_deg": st.floats(-10, 10)}))
+        ]
     elif kind == "params":
         head["params"] = draw(PARAMS[head["pattern"]])
     elif kind == "params type":
@@ -190,8 +199,14 @@ def _cross_field_case(draw) -> tuple[str, dict]:
         data["motion"]["frames"] = draw(st.integers(10_002, 1_000_000))
         data["dataset"] = {"format": draw(st.sampled_from(["kitti", "kitti_tracking", "openpcdet"]))}
     elif kind == "sensors":
-        data["sensors"] = draw(st.one_of(st.just([]), st.integers(17, 40).map(lambda n: [{"name": f"s{i}"} for i in range(n)]),
-                                         st.integers(), LETTERS))
+        data["sensors"] = draw(
+            st.one_of(
+                st.just([]),
+                st.integers(17, 40).map(lambda n: [{"name": f"s{i}"} for i in range(n)]),
+                st.integers(),
+                LETTERS,
+            )
+        )
     else:
         data["sensors"] = [{"preset": draw(LETTERS)}]
     if kind not in ("sensors",) and draw(st.booleans()) and "sensors" not in data:
@@ -241,11 +256,22 @@ def _yaml_case(draw) -> tuple[str, bytes]:
             text = base + "\n".join(lines) + "\n"
         else:
             anchors = "\n".join("  " + line for line in lines)
-            text = base + f"bombs:\n{anchors}\ncustom_sensors:\n  - {{name: c, heads: [{{pattern: rose, params: {{k: *l{levels - 1}}}}}]}}\n"
+            text = (
+                base
+                + f"bombs:\n{anchors}\ncustom_sensors:\n"
+                f"  - {{name: c, heads: [{{pattern: rose, params: {{k: *l{levels - 1}}}}}]}}\n"
+            )
     elif kind == "deep":
         depth = draw(st.integers(MAX_YAML_DEPTH + 1, 20_000))
         opening, closing = ("[", "]") if draw(st.booleans()) else ("{a: ", "}")
-        text = base + f"{draw(st.sampled_from(['motion', 'custom_sensors', 'extra']))}: " + opening * depth + "1" * (opening == "{a: ") + closing * depth + "\n"
+        text = (
+            base
+            + f"{draw(st.sampled_from(['motion', 'custom_sensors', 'extra']))}: "
+            + opening * depth
+            + "1" * (opening == "{a: ")
+            + closing * depth
+            + "\n"
+        )
     elif kind == "duplicate":
         section = draw(st.sampled_from(["seed", "motion", "name"]))
         text = base + (f"{section}: 4\n" if section != "motion" else "motion:\n  frames: 3\n  frames: 4\n")
@@ -254,17 +280,24 @@ def _yaml_case(draw) -> tuple[str, bytes]:
     elif kind == "oversize":
         text = base + "description: '" + "x" * (MAX_YAML_BYTES + draw(st.integers(1, 4096))) + "'\n"
     elif kind == "malformed":
-        text = base + draw(st.sampled_from(["motion: [1, 2\n", "name: 'open\n", "\tseed: 1\n", "seed: 1: 2\n", "- a\nb: c\n", "{{{\n"]))
+        text = base + draw(
+            st.sampled_from(["motion: [1, 2\n", "name: 'open\n", "\tseed: 1\n", "seed: 1: 2\n", "- a\nb: c\n", "{{{\n"])
+        )
     elif kind == "not a mapping":
         text = draw(st.sampled_from(["- a\n- b\n", "just a string\n", "42\n", "", "~\n", "---\n...\n", "[]\n"]))
     elif kind == "tag":
-        text = base + draw(st.sampled_from(["x: !!python/object/apply:os.system ['true']\n", "x: !!python/name:os.system\n",
-                                            "x: !custom 1\n"]))
+        text = base + draw(
+            st.sampled_from(
+                ["x: !!python/object/apply:os.system ['true']\n", "x: !!python/name:os.system\n", "x: !custom 1\n"]
+            )
+        )
     elif kind == "big integer":
         text = base.replace("seed: 3", "seed: " + "9" * draw(st.integers(4301, 50_000)))
     elif kind == "not UTF-8":
         position = draw(st.integers(0, len(base)))
-        return f"yaml: {kind}", base[:position].encode() + draw(st.sampled_from([b"\xff", b"\xfe\xff", b"\xc3\x28", b"\x80"])) + base[position:].encode()
+        return f"yaml: {kind}", base[:position].encode() + draw(
+            st.sampled_from([b"\xff", b"\xfe\xff", b"\xc3\x28", b"\x80"])
+        ) + base[position:].encode()
     else:
         text = base + "description: " + draw(st.sampled_from(["\x00", "\x07", "\x1b[31m", "\ufffe"])) + "\n"
     return f"yaml: {kind}", text.encode()
@@ -337,8 +370,22 @@ INT_BAD = st.one_of(LETTERS, st.just(float("nan")), st.just(1.5), st.integers(ma
 FLOAT_BAD = st.one_of(LETTERS, st.just(float("nan")), st.just(float("inf")), st.floats(max_value=-1e-9), st.none(),
                       st.lists(st.floats(0, 1), min_size=1), st.just(True))
 STR_BAD = st.one_of(st.integers(), st.none(), st.lists(LETTERS, min_size=1), st.just({"k": "v"}), st.just(1.5))
-FORGED = ["../../etc/hostname", "/etc/passwd", "a/../../b", "points/../../../x", MANIFEST_NAME, "README.md", ".simgen/lock",
-          "a\\b", "a//b", "", "./x", "x/.", "a\x01b", "x" * 2000]
+FORGED = [
+    "../../etc/hostname",
+    "/etc/passwd",
+    "a/../../b",
+    "points/../../../x",
+    MANIFEST_NAME,
+    "README.md",
+    ".simgen/lock",
+    "a\\b",
+    "a//b",
+    "",
+    "./x",
+    "x/.",
+    "a\x01b",
+    "x" * 2000,
+]
 TYPED = {
     "files": {"path": st.one_of(STR_BAD, st.sampled_from(FORGED)), "rows": INT_BAD, "bytes": INT_BAD,
               "sha256": st.one_of(STR_BAD, LETTERS, st.just("0" * 63), st.just("G" * 64))},
@@ -351,20 +398,44 @@ TYPED = {
                 "pose": st.one_of(STR_BAD, st.lists(st.floats(-1, 1), max_size=9).filter(lambda v: len(v) != 6),
                                   st.lists(st.one_of(LETTERS, st.just(float("nan"))), min_size=6, max_size=6))},
 }
-TOP = {"format": st.one_of(STR_BAD, LETTERS), "seed": INT_BAD, "simgen_version": st.one_of(STR_BAD, st.just("v" * 65)),
-       "dependencies": st.one_of(LETTERS, st.lists(LETTERS), st.just({"numpy": 1})), "scenario": st.one_of(LETTERS, st.integers(), st.lists(LETTERS)),
-       "sensors": st.one_of(LETTERS, st.just([]), st.integers()), "clips": st.one_of(LETTERS, st.just([]), st.just({})),
-       "files": st.one_of(LETTERS, st.just([]), st.none()), "totals": st.one_of(LETTERS, st.just({"frames": 1})),
-       "conventions": st.one_of(LETTERS, st.integers())}
+TOP = {
+    "format": st.one_of(STR_BAD, LETTERS),
+    "seed": INT_BAD,
+    "simgen_version": st.one_of(STR_BAD, st.just("v" * 65)),
+    "dependencies": st.one_of(LETTERS, st.lists(LETTERS), st.just({"numpy": 1})),
+    "scenario": st.one_of(LETTERS, st.integers(), st.lists(LETTERS)),
+    "sensors": st.one_of(LETTERS, st.just([]), st.integers()),
+    "clips": st.one_of(LETTERS, st.just([]), st.just({})),
+    "files": st.one_of(LETTERS, st.just([]), st.none()),
+    "totals": st.one_of(LETTERS, st.just({"frames": 1})),
+    "conventions": st.one_of(LETTERS, st.integers()),
+}
 
 
 @st.composite
 def _manifest_case(draw) -> tuple[str, str, object]:
     """(format, kind, what to do): a manifest that must be refused as malformed."""
     format = draw(st.sampled_from(FORMATS))
-    kind = draw(st.sampled_from(["typed field", "top field", "missing key", "unknown key", "duplicate", "forged path",
-                                 "fewer frames", "more frames", "dropped file", "totals", "not JSON", "deep", "not an object",
-                                 "special file"]))
+    kind = draw(
+        st.sampled_from(
+            [
+                "typed field",
+                "top field",
+                "missing key",
+                "unknown key",
+                "duplicate",
+                "forged path",
+                "fewer frames",
+                "more frames",
+                "dropped file",
+                "totals",
+                "not JSON",
+                "deep",
+                "not an object",
+                "special file",
+            ]
+        )
+    )
     if kind == "typed field":
         section = draw(st.sampled_from(sorted(TYPED)))
         key = draw(st.sampled_from(sorted(TYPED[section])))
@@ -375,7 +446,11 @@ def _manifest_case(draw) -> tuple[str, str, object]:
     if kind == "missing key":
         return format, kind, ("drop key", draw(st.sampled_from(sorted(TOP))))
     if kind == "unknown key":
-        return format, kind, ("extra key", draw(st.sampled_from(["", "files", "clips", "sensors", "totals"])), draw(LETTERS))
+        return (
+            format,
+            kind,
+            ("extra key", draw(st.sampled_from(["", "files", "clips", "sensors", "totals"])), draw(LETTERS)),
+        )
     if kind == "duplicate":
         return format, kind, ("duplicate", draw(st.sampled_from(["files", "clips", "sensors"])))
     if kind == "forged path":
@@ -385,9 +460,17 @@ def _manifest_case(draw) -> tuple[str, str, object]:
     if kind == "dropped file":
         return format, kind, ("drop file", draw(st.integers(0, 10**6)))
     if kind == "totals":
-        return format, kind, ("totals", draw(st.sampled_from(["frames", "points", "boxes"])), draw(st.integers(1, 10**6)))
+        return (
+            format,
+            kind,
+            ("totals", draw(st.sampled_from(["frames", "points", "boxes"])), draw(st.integers(1, 10**6))),
+        )
     if kind == "not JSON":
-        return format, kind, ("bytes", draw(st.sampled_from(["cut", "utf8", "nan text", "empty"])), draw(st.integers(0, 10**6)))
+        return (
+            format,
+            kind,
+            ("bytes", draw(st.sampled_from(["cut", "utf8", "nan text", "empty"])), draw(st.integers(0, 10**6))),
+        )
     if kind == "deep":
         return format, kind, ("deep", draw(st.integers(2_000, 200_000)))
     if kind == "not an object":
@@ -497,7 +580,9 @@ def test_generated_corrupt_manifests_are_refused_in_one_line(written):
         assert _listing(root) == before[format]
         datasets.open(root).verify()  # restored
     total = sum(kinds.values())
-    print(f"{total} corrupt manifests in {len(kinds)} kinds refused; peak memory +{(peak_bytes() - peak) / 2**20:.0f} MiB")
+    print(
+        f"{total} corrupt manifests in {len(kinds)} kinds refused; peak memory +{(peak_bytes() - peak) / 2**20:.0f} MiB"
+    )
     assert total >= CORRUPT_MANIFESTS and len(kinds) >= 30, sorted(kinds)
     assert peak_bytes() - peak < MAX_GROWTH_BYTES
 
@@ -542,14 +627,29 @@ def _process(*arguments) -> tuple[int, str, str, int, float]:
 
 def test_hostile_input_in_real_processes(tmp_path, written):
     laughs = tmp_path / "laughs.yaml"
-    lines = [f"l0: &l0 [{', '.join(['lol'] * 9)}]"] + [f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 9)}]" for i in range(1, 10)]
+    lines = [f"l0: &l0 [{', '.join(['lol'] * 9)}]"] + [
+        f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 9)}]" for i in range(1, 10)
+    ]
     laughs.write_text(_dump(BASE) + "\n".join(lines) + "\n")
     deep = tmp_path / "deep.yaml"
     deep.write_text(_dump(BASE) + "motion: " + "[" * 100_000 + "]" * 100_000 + "\n")
     passwd = tmp_path / "passwd.yaml"
-    passwd.write_text(_dump({**BASE, "custom_sensors": [{"name": "c", "heads": [{"pattern": "replay", "params": {"file": "/etc/passwd"}}]}]}))
+    passwd.write_text(
+        _dump(
+            {
+                **BASE,
+                "custom_sensors": [{"name": "c", "heads": [{"pattern": "replay", "params": {"file": "/etc/passwd"}}]}],
+            }
+        )
+    )
     root, original = written["kitti"]
-    cases = [("validate", laughs), ("validate", deep), ("validate", "/dev/zero"), ("validate", passwd), ("verify", root)]
+    cases = [
+        ("validate", laughs),
+        ("validate", deep),
+        ("validate", "/dev/zero"),
+        ("validate", passwd),
+        ("verify", root),
+    ]
     before = _listing(tmp_path)
     try:
         _corrupt(root, original, ("forge", "../../etc/hostname", True))
@@ -565,12 +665,24 @@ def test_hostile_input_in_real_processes(tmp_path, written):
 # --- the one YAML reader, disks that refuse, a run killed after its manifest ----------------------
 
 
-@pytest.mark.parametrize("document, problem", [
-    ("a: " + "[" * (MAX_YAML_DEPTH + 8) + "]" * (MAX_YAML_DEPTH + 8) + "\n", f"nested deeper than {MAX_YAML_DEPTH} levels"),
-    ("\n".join([f"l0: &l0 [{', '.join(['x'] * 10)}]"] + [f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 10)}]" for i in range(1, 9)]) + "\n",
-     f"aliases expand to more than {MAX_YAML_NODES:,} nodes"),
-    ("pattern: {}\npattern: {}\n", "duplicate key 'pattern'"),
-])
+@pytest.mark.parametrize(
+    "document, problem",
+    [
+        (
+            "a: " + "[" * (MAX_YAML_DEPTH + 8) + "]" * (MAX_YAML_DEPTH + 8) + "\n",
+            f"nested deeper than {MAX_YAML_DEPTH} levels",
+        ),
+        (
+            "\n".join(
+                [f"l0: &l0 [{', '.join(['x'] * 10)}]"]
+                + [f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 10)}]" for i in range(1, 9)]
+            )
+            + "\n",
+            f"aliases expand to more than {MAX_YAML_NODES:,} nodes",
+        ),
+        ("pattern: {}\npattern: {}\n", "duplicate key 'pattern'"),
+    ],
+)
 def test_every_yaml_the_project_reads_goes_through_one_reader(tmp_path, document, problem):
     from simgen.qa.tolerances import load_tolerances
     from simgen.scenario import load_scenario
@@ -624,7 +736,19 @@ def test_a_full_disk_is_one_line_and_exit_2(tmp_path, written):
     for arguments in (
         ["pattern", "mid40-rose", "--seconds", "0.2", "-o", full / "p.npz"],
         ["view", root, "-o", full / "view"],
-        ["view", root, "--no-images", "--export-frame", "0", "--export-frame", "1", "--export-format", "ply", "-o", full / "x"],
+        [
+            "view",
+            root,
+            "--no-images",
+            "--export-frame",
+            "0",
+            "--export-frame",
+            "1",
+            "--export-format",
+            "ply",
+            "-o",
+            full / "x",
+        ],
     ):
         result = _in_a_full_file_system(arguments, 16)
         assert result.returncode == 2, (arguments, result.stderr[-500:])
@@ -636,7 +760,9 @@ def test_a_full_disk_is_one_line_and_exit_2(tmp_path, written):
         assert not any(".tmp" in name for name in left), left  # no temporary left behind
         assert str(full / "p.npz") not in left
     result = _in_a_full_file_system(["view", root, "-o", full / "view"], 16, "ro")  # EROFS
-    assert result.returncode == 2 and result.stderr == f"simgen view: error: {full / 'view'}: read-only file system\n", result.stderr
+    assert (
+        result.returncode == 2 and result.stderr == f"simgen view: error: {full / 'view'}: read-only file system\n"
+    ), result.stderr
 
 
 def test_resume_completes_a_run_killed_after_its_manifest(tmp_path):
@@ -678,8 +804,15 @@ def test_replay_files_come_from_the_scenario_folder_or_the_listed_ones(tmp_path,
 
     def scenario(file: str) -> Path:
         path = folder / "s.yaml"
-        path.write_text(_dump({**BASE, "custom_sensors": [{"name": "c", "heads": [{"pattern": "replay", "params": {"file": file}}]}],
-                               "sensors": [{"preset": "c"}]}))
+        path.write_text(
+            _dump(
+                {
+                    **BASE,
+                    "custom_sensors": [{"name": "c", "heads": [{"pattern": "replay", "params": {"file": file}}]}],
+                    "sensors": [{"preset": "c"}],
+                }
+            )
+        )
         return path
 
     monkeypatch.delenv(PATTERN_DIRS_ENV, raising=False)
@@ -690,4 +823,6 @@ def test_replay_files_come_from_the_scenario_folder_or_the_listed_ones(tmp_path,
     with pytest.raises(UserError, match="outside the scenario's folder"):
         load_scenario(scenario("../patterns/p.npz"))
     monkeypatch.setenv(PATTERN_DIRS_ENV, f"/nonexistent:{elsewhere}")
-    assert load_scenario(scenario("../patterns/p.npz")).sensor_specs()[0].heads[0].params["file"] == str(elsewhere / "p.npz")
+    assert load_scenario(scenario("../patterns/p.npz")).sensor_specs()[0].heads[0].params["file"] == str(
+        elsewhere / "p.npz"
+    )

@@ -82,7 +82,7 @@ def test_boxes_are_tight_around_the_mesh():
 
 def test_standing_box():
     boxes = boxes_from_keypoints(keypoints(PRESETS["standing"])[None])
-    (x, y, z, length, width, height, yaw) = boxes.array[0]
+    (_, y, z, length, width, height, yaw) = boxes.array[0]
     assert z - height / 2 == pytest.approx(0.0)  # from the ground
     assert 1.7 <= height <= 1.9
     assert 0.40 <= width <= 0.6 and 0.3 <= length <= 0.6
@@ -165,8 +165,12 @@ def test_track_sizes_hold_still_over_the_clip(motion_clip):
     enclosing = list(render_frames(parse_scenario(scenario), motion_clip, 0, 0, 6))
     track = list(render_frames(parse_scenario({**scenario, "labels": {"size": "track"}}), motion_clip, 0, 0, 6))
     sizes = np.stack([f.labels.boxes[:, 3:6] for f in track])
-    assert np.all(sizes == sizes[0]) and np.ptp(np.stack([f.labels.boxes[:, 3] for f in enclosing]), axis=0).max() > 0.05
+    assert (
+        np.all(sizes == sizes[0]) and np.ptp(np.stack([f.labels.boxes[:, 3] for f in enclosing]), axis=0).max() > 0.05
+    )
     for a, b in zip(enclosing, track):
         np.testing.assert_array_equal(a.labels.boxes[:, :2], b.labels.boxes[:, :2])
-        np.testing.assert_allclose(a.labels.boxes[:, 2] - a.labels.boxes[:, 5] / 2, b.labels.boxes[:, 2] - b.labels.boxes[:, 5] / 2, atol=1e-6)
+        np.testing.assert_allclose(
+            a.labels.boxes[:, 2] - a.labels.boxes[:, 5] / 2, b.labels.boxes[:, 2] - b.labels.boxes[:, 5] / 2, atol=1e-6
+        )
         np.testing.assert_array_equal(a.labels.boxes[:, 6], b.labels.boxes[:, 6])

@@ -32,7 +32,9 @@ def _locked() -> dict[str, tuple[Version, list[str]]]:
 
 def test_the_venv_holds_exactly_the_locked_packages():
     """`pip freeze` of the set-up's venv equals the lock: same names, same versions, nothing more."""
-    assert Path(sys.prefix) == ROOT / ".venv", f"run the tests with the set-up's venv ({ROOT / '.venv'}), not {sys.prefix}"
+    assert Path(sys.prefix) == ROOT / ".venv", (
+        f"run the tests with the set-up's venv ({ROOT / '.venv'}), not {sys.prefix}"
+    )
     installed = {canonicalize_name(d.metadata["Name"]): Version(d.version) for d in distributions()}
     locked = {name: version for name, (version, _) in _locked().items()}
     assert BUILT_HERE <= set(installed)
@@ -50,5 +52,7 @@ def test_every_pin_is_hashed_and_satisfies_pyproject():
         requirement = Requirement(line)
         name = canonicalize_name(requirement.name)
         assert name in pins, f"{requirement} is not in requirements.lock: run `make lock`"
-        assert requirement.specifier.contains(pins[name][0], prereleases=True), f"{requirement}: the lock pins {pins[name][0]}"
+        assert requirement.specifier.contains(pins[name][0], prereleases=True), (
+            f"{requirement}: the lock pins {pins[name][0]}"
+        )
     assert {"pip", "setuptools", "wheel"} <= set(pins)

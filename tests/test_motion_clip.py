@@ -111,7 +111,7 @@ def test_not_a_clip_is_one_line(tmp_path):
     with pytest.raises(UserError, match="rows are not whole frames"):
         read_clip(tmp_path / "ragged.parquet")
     pq.write_table(table.drop_columns(["keypoints_m"]), tmp_path / "no_keypoints.parquet")
-    with pytest.raises(UserError, match="not a simgen motion clip .*keypoints_m"):
+    with pytest.raises(UserError, match=r"not a simgen motion clip .*keypoints_m"):
         read_clip(tmp_path / "no_keypoints.parquet")
     pq.write_table(table.replace_schema_metadata({}), tmp_path / "plain.parquet")
     with pytest.raises(UserError, match="not a simgen motion clip"):

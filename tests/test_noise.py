@@ -23,12 +23,20 @@ def rays_down(n: int, spread_rad: float = 0.3, seed: int = 0) -> Rays:
     rng = np.random.default_rng(seed)
     directions = np.column_stack([rng.uniform(-spread_rad, spread_rad, (n, 2)), -np.ones(n)])
     directions /= np.linalg.norm(directions, axis=1, keepdims=True)
-    return Rays(np.tile([0.0, 20.0, HEIGHT_M], (n, 1)), directions, np.full(n, 0.5), np.zeros(n, np.uint8), np.zeros(n, np.uint8))
+    return Rays(
+        np.tile([0.0, 20.0, HEIGHT_M], (n, 1)),
+        directions,
+        np.full(n, 0.5),
+        np.zeros(n, np.uint8),
+        np.zeros(n, np.uint8),
+    )
 
 
 @pytest.fixture(scope="module")
 def world():
-    return World(still_clip([keypoints(PRESETS["standing"], position_m=(-40, -30))], ["left"]), build_static_scene(goals=False))
+    return World(
+        still_clip([keypoints(PRESETS["standing"], position_m=(-40, -30))], ["left"]), build_static_scene(goals=False)
+    )
 
 
 def exact_ranges(rays: Rays) -> np.ndarray:
@@ -37,7 +45,9 @@ def exact_ranges(rays: Rays) -> np.ndarray:
 
 def test_range_noise_has_the_configured_sigma(world):
     rays = rays_down(20000)
-    frame = render_frame(world, rays, 0.45, NoiseConfig(range_sigma_m=0.02, angle_sigma_deg=0.0), np.random.default_rng(1))
+    frame = render_frame(
+        world, rays, 0.45, NoiseConfig(range_sigma_m=0.02, angle_sigma_deg=0.0), np.random.default_rng(1)
+    )
     error = np.linalg.norm(frame.points_m - rays.origin_m, axis=1) - exact_ranges(rays)
     assert abs(error.mean()) < 0.001
     assert error.std() == pytest.approx(0.02, rel=0.05)
@@ -45,7 +55,9 @@ def test_range_noise_has_the_configured_sigma(world):
 
 def test_angle_noise_has_the_configured_sigma_per_axis(world):
     rays = rays_down(20000)
-    frame = render_frame(world, rays, 0.45, NoiseConfig(range_sigma_m=0.0, angle_sigma_deg=0.05), np.random.default_rng(2))
+    frame = render_frame(
+        world, rays, 0.45, NoiseConfig(range_sigma_m=0.0, angle_sigma_deg=0.05), np.random.default_rng(2)
+    )
     seen = frame.points_m - rays.origin_m
     seen /= np.linalg.norm(seen, axis=1, keepdims=True)
     angle = np.arccos(np.clip(np.einsum("ni,ni->n", seen, rays.direction), -1, 1))
@@ -65,7 +77,20 @@ def test_datasheet_ranges_and_grazing_grass_out_of_range():
     # Grass (0.35) seen at a grazing angle: beyond its reduced range, the shot is missed.
     origin, t = np.array([[0.0, 0.0, 1.0]]), 100.0
     direction = np.array([[np.sqrt(1 - 0.01**2), 0.0, -0.01]])
-    args = (origin, direction, np.array([t]), np.array([0.35]), np.array([0.01]), 1, 1.0, 90.0, 0.0, 0.0, 0.0, np.random.default_rng(0))
+    args = (
+        origin,
+        direction,
+        np.array([t]),
+        np.array([0.35]),
+        np.array([0.01]),
+        1,
+        1.0,
+        90.0,
+        0.0,
+        0.0,
+        0.0,
+        np.random.default_rng(0),
+    )
     hits, _, _, missed, dropped = noisy_returns(*args)
     assert (len(hits), missed, dropped) == (0, 1, 0)
 
@@ -75,14 +100,27 @@ def test_a_wide_beam_returns_from_an_object_its_axis_just_misses():
     passes it with one ray per shot, but with sub-rays over a 3 degree footprint its nearest return
     is the ball."""
     ball = np.array([10.0, 0.0, 3.0])
-    world = World(still_clip([keypoints(PRESETS["standing"], position_m=(-40, -30))], ["left"], ball=tuple(ball)), build_static_scene(goals=False))
+    world = World(
+        still_clip([keypoints(PRESETS["standing"], position_m=(-40, -30))], ["left"], ball=tuple(ball)),
+        build_static_scene(goals=False),
+    )
     origin = np.array([0.0, 0.0, 3.0])
     axis = (ball - origin) / np.linalg.norm(ball - origin)
     side = np.radians(1.0)
-    direction = np.array([axis[0] * np.cos(side) - axis[1] * np.sin(side), axis[0] * np.sin(side) + axis[1] * np.cos(side), axis[2]])
-    rays = Rays(origin[None], direction[None] / np.linalg.norm(direction), np.array([0.5]), np.zeros(1, np.uint8), np.zeros(1, np.uint8))
+    direction = np.array(
+        [axis[0] * np.cos(side) - axis[1] * np.sin(side), axis[0] * np.sin(side) + axis[1] * np.cos(side), axis[2]]
+    )
+    rays = Rays(
+        origin[None],
+        direction[None] / np.linalg.norm(direction),
+        np.array([0.5]),
+        np.zeros(1, np.uint8),
+        np.zeros(1, np.uint8),
+    )
     narrow = render_frame(world, rays, 0.45, NoiseConfig(enabled=False), np.random.default_rng(0))
-    wide = render_frame(world, rays, 0.45, NoiseConfig(enabled=False, subrays=16, divergence_deg=(3.0, 3.0)), np.random.default_rng(0))
+    wide = render_frame(
+        world, rays, 0.45, NoiseConfig(enabled=False, subrays=16, divergence_deg=(3.0, 3.0)), np.random.default_rng(0)
+    )
     assert narrow.missed == 1 and list(wide.semantic) == [BALL]  # the narrow beam goes off to the sky
     assert wide.shots == 1 and len(wide.points_m) == 1
     # The point lies along the shot's axis, at the nearest sub-ray's range (as a Livox reports it).

@@ -27,7 +27,13 @@ RESTART = {  # 1.5 s of paper_x1's clip 1 at 100 Hz, its first restart in the mi
     "name": "restart",
     "seed": engine_seed(PAPER_X1, 1),  # clip 0 of this seed plays as paper_x1's clip 1
     "motion": {"level": "11_vs_11_stochastic", "capture_hz": 100, "frames": 150, "skip_s": 8.5},
-    "sensors": [{"name": "mid100", "preset": "mid100-rose", "pose": {"x": 0.0, "y": -35.0, "z": 4.0, "pitch": -10.0, "yaw": 90.0}}],
+    "sensors": [
+        {
+            "name": "mid100",
+            "preset": "mid100-rose",
+            "pose": {"x": 0.0, "y": -35.0, "z": 4.0, "pitch": -10.0, "yaw": 90.0},
+        }
+    ],
     "scan": {"frame_rate_hz": FRAME_RATE_HZ, "density": 8, "frames": 14},
 }
 
@@ -103,14 +109,22 @@ def test_points_boxes_velocities_and_flags_around_the_restart(restart):
         hits_before += int((placed[humanoid] & (times < placed_at)).sum())
         hits_after += int((placed[humanoid] & (times >= placed_at)).sum())
         assert np.isfinite(labels.velocity_mps).all() and np.linalg.norm(labels.velocity_mps, axis=1).max() < 12.0
-        since, until = frame.label_time_s - 1 / FRAME_RATE_HZ, frame.time_s + 1 / FRAME_RATE_HZ  # previous label time, sweep end
+        # previous label time, sweep end
+        since, until = frame.label_time_s - 1 / FRAME_RATE_HZ, frame.time_s + 1 / FRAME_RATE_HZ
         np.testing.assert_array_equal(labels.discontinuity, placed & (since < placed_at) & (placed_at <= until))
     assert hits_before > 0 and hits_after > 0
     flagged = [f.index for f in frames if f.labels.discontinuity.any()]
     assert 1 <= len(flagged) <= 2, flagged
     middle = KEYPOINT_INDEX["middle"]
-    before, after = (np.searchsorted(clip.time_s, t) for t in (frames[flagged[0]].label_time_s - 1 / FRAME_RATE_HZ, placed_at))
-    assert np.linalg.norm(clip.keypoints_m[after, placed, middle] - clip.keypoints_m[before, placed, middle], axis=-1).max() > 5
+    before, after = (
+        np.searchsorted(clip.time_s, t) for t in (frames[flagged[0]].label_time_s - 1 / FRAME_RATE_HZ, placed_at)
+    )
+    assert (
+        np.linalg.norm(
+            clip.keypoints_m[after, placed, middle] - clip.keypoints_m[before, placed, middle], axis=-1
+        ).max()
+        > 5
+    )
 
 
 @pytest.mark.engine

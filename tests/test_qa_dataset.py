@@ -32,11 +32,16 @@ def test_qa_of_a_dataset_passes_with_its_plots(smoke_dataset, tmp_path):
     assert result.returncode == 0, result.stdout + result.stderr
     lines = result.stdout.splitlines()
     assert any(line.startswith("pass") and "integrity (simgen verify)" in line for line in lines)
-    assert any(line.startswith("pass") and "mid100-risley head 2" in line and "coverage, 0.2 deg" in line for line in lines)
+    assert any(
+        line.startswith("pass") and "mid100-risley head 2" in line and "coverage, 0.2 deg" in line for line in lines
+    )
     assert lines[-1].startswith("PASS: 22 passed, 0 failed")
     html = (tmp_path / "index.html").read_text()
     for image in ("humanoids.png", "frames.png", "pattern_mid100-risley.png", "coverage_mid100-risley.png"):
-        assert f'src="{data_uri(tmp_path / "plots" / image)}"' in html and (tmp_path / "plots" / image).stat().st_size > 10_000
+        assert (
+            f'src="{data_uri(tmp_path / "plots" / image)}"' in html
+            and (tmp_path / "plots" / image).stat().st_size > 10_000
+        )
 
 
 def test_view_writes_pngs_and_an_mp4_that_reads_back(smoke_dataset, tmp_path):
@@ -58,16 +63,23 @@ def test_view_writes_pngs_and_an_mp4_that_reads_back(smoke_dataset, tmp_path):
 
 
 def test_view_exports_ply_only_and_refuses_bad_frames(smoke_dataset, tmp_path):
-    result = run_simgen("view", smoke_dataset, "-o", tmp_path, "--export-frame", "0", "--export-format", "ply", "--no-images")
+    result = run_simgen(
+        "view", smoke_dataset, "-o", tmp_path, "--export-frame", "0", "--export-format", "ply", "--no-images"
+    )
     assert result.returncode == 0, result.stderr
     assert [p.name for p in (tmp_path / "clip_0000").iterdir()] == ["frame_000000.ply"]
     result = run_simgen("view", smoke_dataset, "-o", tmp_path, "--frames", "3:99")
-    assert result.returncode == 2 and result.stderr == f"simgen view: error: --frames 3:99: the clip has frames 0-{FRAMES - 1}\n"
+    assert (
+        result.returncode == 2
+        and result.stderr == f"simgen view: error: --frames 3:99: the clip has frames 0-{FRAMES - 1}\n"
+    )
 
 
 def test_verify_names_a_shard_with_a_flipped_byte(smoke_dataset, tmp_path):
     result = run_simgen("verify", smoke_dataset)
-    assert result.returncode == 0 and result.stdout.endswith(f"ok (5 files, {FRAMES} frames, {FRAMES * 25} boxes checked)\n")
+    assert result.returncode == 0 and result.stdout.endswith(
+        f"ok (5 files, {FRAMES} frames, {FRAMES * 25} boxes checked)\n"
+    )
     copy = tmp_path / "copy"
     shutil.copytree(smoke_dataset, copy)
     shard = copy / "points" / "clip_0000" / "part-0.parquet"
@@ -91,5 +103,7 @@ def test_the_report_and_the_card_name_no_folder_of_this_machine(smoke_dataset, t
     assert "tolerances from simgen/qa/tolerances.yaml (shipped)" in report
     assert "| copy/points/notes.txt |" in report and report.startswith("# Dataset QA: copy")
     for folder in (ROOT, tmp_path):
-        grep = subprocess.run(["grep", "-rlF", str(folder), str(out), str(copy / "README.md")], capture_output=True, text=True)
+        grep = subprocess.run(
+            ["grep", "-rlF", str(folder), str(out), str(copy / "README.md")], capture_output=True, text=True
+        )
         assert grep.returncode == 1 and grep.stdout == "", grep.stdout

@@ -10,8 +10,8 @@ import cv2
 import pytest
 import yaml
 
-from simgen.cli import main
 from scan_patterns import HeadSpec
+from simgen.cli import main
 from simgen.qa.pattern import head_qa
 from simgen.qa.tolerances import DEFAULT_PATH, load_tolerances
 from tests.support import ROOT, chromium
@@ -99,7 +99,10 @@ def test_bad_input_is_one_line(tmp_path):
     result = run_simgen("qa", "--pattern", "mid41", "-o", tmp_path / "out")
     assert result.returncode == 2 and result.stderr.startswith("simgen qa: error: unknown sensor 'mid41'")
     result = run_simgen("qa", tmp_path / "nothing", "-o", tmp_path / "out")
-    assert result.returncode == 2 and result.stderr == f"simgen qa: error: {tmp_path / 'nothing'}: no such dataset directory\n"
+    assert (
+        result.returncode == 2
+        and result.stderr == f"simgen qa: error: {tmp_path / 'nothing'}: no such dataset directory\n"
+    )
 
 
 def test_a_head_without_an_official_file_is_reported_not_failed():

@@ -59,7 +59,11 @@ def readme_examples(text: str) -> tuple[list[str], list[str]]:
 
 
 def _run(command: list[str], cwd: Path) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}", "PYTHONPATH": str(ROOT)}
+    env = {
+        **os.environ,
+        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
+        "PYTHONPATH": str(ROOT),
+    }
     return subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, timeout=900)
 
 
@@ -82,7 +86,9 @@ def test_every_readme_example_runs_as_written(tmp_path):
             result = _run(["bash", "-c", line], tmp_path)
         if command.startswith(FAILS_PATTERN):
             failed = [row for row in result.stdout.splitlines() if row.startswith("FAIL ")]
-            assert result.returncode == 1 and failed and all(" mid100-rose head " in row for row in failed), result.stdout
+            assert result.returncode == 1 and failed and all(" mid100-rose head " in row for row in failed), (
+                result.stdout
+            )
         else:
             assert result.returncode == 0, f"{command}\n{result.stdout[-2000:]}\n{result.stderr[-2000:]}"
         ran.append(command)

@@ -62,7 +62,10 @@ def _bad_inputs(tmp: Path) -> list[tuple[str, list]]:
         ("negative density", ["validate", scenario("scan:\n  density: -2\n")]),
         ("negative range noise", ["validate", scenario("noise:\n  range_sigma_m: -0.01\n")]),
         ("negative dropout", ["validate", scenario("noise:\n  dropout: -0.1\n")]),
-        ("field of view over 180 degrees", ["validate", scenario("custom_sensors:\n  - {name: w, heads: [{like: mid40-rose, fov_deg: 190}]}\n")]),
+        (
+            "field of view over 180 degrees",
+            ["validate", scenario("custom_sensors:\n  - {name: w, heads: [{like: mid40-rose, fov_deg: 190}]}\n")],
+        ),
         ("frame rate 0", ["validate", scenario("scan:\n  frame_rate_hz: 0\n")]),
         ("unknown sensor preset", ["validate", scenario("sensors:\n  - {preset: mid999}\n")]),
         ("unknown pattern", ["validate", scenario("custom_sensors:\n  - {name: w, heads: [{pattern: spiral}]}\n")]),
@@ -91,7 +94,7 @@ def _binary(tmp: Path) -> Path:
 
 
 def _files(directory: Path) -> set[Path]:
-    return {p for p in directory.rglob("*")}
+    return set(directory.rglob("*"))
 
 
 def test_bad_input_table(tmp_path):
@@ -115,13 +118,32 @@ def test_output_outside_the_allowed_roots(tmp_path):
         ["capture", SMOKE, "-o", tmp_path / "m.parquet"],
         ["pattern", "mid40-rose", "--seconds", "0.01", "-o", tmp_path / "p.npz"],
     ):
-        result = subprocess.run([sys.executable, "-m", "simgen.cli", *map(str, arguments)], capture_output=True, text=True, env=env, cwd=ROOT)
+        result = subprocess.run(
+            [sys.executable, "-m", "simgen.cli", *map(str, arguments)],
+            capture_output=True,
+            text=True,
+            env=env,
+            cwd=ROOT,
+        )
         assert result.returncode == 2 and "outside the allowed output roots" in result.stderr
         assert result.stderr.count("\n") == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["allowed"]
     ok = subprocess.run(
-        [sys.executable, "-m", "simgen.cli", "pattern", "mid40-rose", "--seconds", "0.01", "-o", str(allowed / "p.npz")],
-        capture_output=True, text=True, env=env, cwd=ROOT,
+        [
+            sys.executable,
+            "-m",
+            "simgen.cli",
+            "pattern",
+            "mid40-rose",
+            "--seconds",
+            "0.01",
+            "-o",
+            str(allowed / "p.npz"),
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=ROOT,
     )
     assert ok.returncode == 0, ok.stderr
 
@@ -152,7 +174,9 @@ def mutated_scenarios(draw):
     if kind == "value":
         data.setdefault(section, {})[draw(st.sampled_from(SECTIONS[section]))] = draw(BAD_VALUES)
     elif kind == "unknown key":
-        data.setdefault(section, {})[draw(st.text(min_size=1, max_size=8).filter(lambda k: k not in SECTIONS[section]))] = 1
+        data.setdefault(section, {})[
+            draw(st.text(min_size=1, max_size=8).filter(lambda k: k not in SECTIONS[section]))
+        ] = 1
     elif kind == "unknown section":
         data[draw(st.text(min_size=1, max_size=8).filter(lambda k: k not in VALID and k not in SECTIONS))] = {}
     else:
@@ -266,18 +290,21 @@ def test_sigkill_at_random_moments_then_resume(reference, tmp_path):
 def test_ray_worker_killed_mid_task_is_retried(reference, tmp_path):
     with local_ray_cluster() as address:
         out = tmp_path / "ray"
-        command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), *SMALL, "--executor", "ray", "--address", address]
+        command = [sys.executable, "-m", "simgen.cli", "generate", str(SMOKE), "-o", str(out), *SMALL,
+                   "--executor", "ray", "--address", address]
         driver = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         killed = None
         deadline = time.time() + 180
         while killed is None and time.time() < deadline and driver.poll() is None:
-            tasks = subprocess.run(["pgrep", "-f", "ray::run_job_reporting"], capture_output=True, text=True).stdout.split()
+            tasks = subprocess.run(
+                ["pgrep", "-f", "ray::run_job_reporting"], capture_output=True, text=True
+            ).stdout.split()
             if tasks:
                 time.sleep(0.5)
                 os.kill(int(tasks[0]), signal.SIGKILL)
                 killed = int(tasks[0])
             time.sleep(0.05)
-        stdout, stderr = driver.communicate(timeout=600)
+        _, stderr = driver.communicate(timeout=600)
     assert killed is not None, "no Ray task was seen running"
     assert driver.returncode == 0, stderr[-2000:]
     assert _shas(out) == _shas(reference[0])
@@ -313,7 +340,9 @@ def test_every_flipped_file_is_detected(tmp_path, fmt):
         finally:
             path.write_bytes(original)
     assert detected == len(files) > 0
-    print(f"{fmt}: {detected} of {len(files)} flipped files detected by verify, {read_by_reader} also by reading frames")
+    print(
+        f"{fmt}: {detected} of {len(files)} flipped files detected by verify, {read_by_reader} also by reading frames"
+    )
     assert read_by_reader >= len(files) - 2 - (fmt != "parquet")  # all but the tables frames never read
 
 

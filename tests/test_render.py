@@ -23,7 +23,13 @@ def rays_towards(origin, directions, time_s=0.5) -> Rays:
     directions = np.asarray(directions, dtype=np.float64)
     directions /= np.linalg.norm(directions, axis=1, keepdims=True)
     n = len(directions)
-    return Rays(np.tile(np.asarray(origin, float), (n, 1)), directions, np.full(n, time_s), np.zeros(n, np.uint8), np.zeros(n, np.uint8))
+    return Rays(
+        np.tile(np.asarray(origin, float), (n, 1)),
+        directions,
+        np.full(n, time_s),
+        np.zeros(n, np.uint8),
+        np.zeros(n, np.uint8),
+    )
 
 
 def fan(origin, target, half_width_rad, count) -> Rays:
@@ -205,7 +211,9 @@ def test_points_carry_the_sweep_of_their_shot(motion_clip):
     for frame in frames:
         scan = frame.scan
         assert set(np.unique(scan.sweep)) == {0, 1}
-        assert scan.time_offset_s[scan.sweep == 0].max() <= 0.05 + 1e-6 < scan.time_offset_s[scan.sweep == 1].min() + 1e-6
+        assert (
+            scan.time_offset_s[scan.sweep == 0].max() <= 0.05 + 1e-6 < scan.time_offset_s[scan.sweep == 1].min() + 1e-6
+        )
     single = parse_scenario({"name": "t", "scan": {"frames": 4}})
     assert all((f.scan.sweep == 0).all() for f in render_clip(single, motion_clip, 0))
     shards = list(render_frames(scenario, motion_clip, 0, 2, 4))

@@ -11,12 +11,18 @@ import pytest
 
 import scan_patterns as sp
 from scan_patterns.livox_tables import TABLES
-from scan_patterns.write_tables import write_table
 from scan_patterns.replay import load_pattern_file
 from scan_patterns.shots import angle_between_deg
+from scan_patterns.write_tables import write_table
 from simgen.cli import main
 
-PRESETS = {"avia": "avia-replay", "horizon": "horizon-replay", "tele": "tele15-replay", "hap": "hap-replay", "mid360": "mid360-replay"}
+PRESETS = {
+    "avia": "avia-replay",
+    "horizon": "horizon-replay",
+    "tele": "tele15-replay",
+    "hap": "hap-replay",
+    "mid360": "mid360-replay",
+}
 
 
 def _laser_steps(dirs: np.ndarray, lasers: int) -> np.ndarray:
@@ -60,7 +66,9 @@ def test_elevation_signs_put_the_mid360_field_where_livox_says():
     azimuth_deg, zenith_deg = sp.livox_angles(load_pattern_file("mid360").dirs)
     elevation = 90.0 - zenith_deg
     assert -7.3 < elevation.min() < -7.0 and 52.0 < elevation.max() < 52.3
-    assert np.mod(azimuth_deg[0], 360.0) == pytest.approx(268.99, abs=1e-4) and zenith_deg[0] == pytest.approx(37.838, abs=1e-4)
+    assert np.mod(azimuth_deg[0], 360.0) == pytest.approx(268.99, abs=1e-4) and zenith_deg[0] == pytest.approx(
+        37.838, abs=1e-4
+    )
 
 
 def test_a_window_from_any_shot_continues_the_lasers_and_density_stays_on_a_laser():
@@ -91,7 +99,7 @@ def test_past_the_table_it_loops_loudly_and_jumps_at_the_seam(name, seam_deg):
 
 def test_the_table_tool_refuses_another_source(tmp_path):
     (tmp_path / "avia.npy").write_bytes(b"not mujoco-lidar's table")
-    with pytest.raises(ValueError, match="sha256 .*not mujoco-lidar 0.3.5's"):
+    with pytest.raises(ValueError, match=r"sha256 .*not mujoco-lidar 0\.3\.5's"):
         write_table(TABLES["avia"], tmp_path, tmp_path, full=False)
     assert [p.name for p in tmp_path.iterdir()] == ["avia.npy"]
 

@@ -57,7 +57,7 @@ def test_shots_outside_the_field_of_view_cover_nothing():
 
 
 def test_beam_footprint_touches_the_cells_it_overlaps():
-    u, v = _cell_centres(10.0, 0.2)
+    u, _ = _cell_centres(10.0, 0.2)
     one = make_shots([0.01], _at_projected([0.1], [0.1]), 0.0, 1.0)  # centre of a cell
     point = sp.coverage_curve(one, 10.0, (1.0,), 0.2)[0]
     assert point == pytest.approx(1 / len(u))

@@ -56,7 +56,7 @@ def test_livox_csv_layout_loads_like_the_npz(tmp_path):
 
 
 def test_missing_file_is_named():
-    with pytest.raises(ValueError, match="pattern file not found: .*nowhere.csv"):
+    with pytest.raises(ValueError, match=r"pattern file not found: .*nowhere\.csv"):
         sp.head_shots(sp.HeadSpec("replay", {"file": "/nowhere.csv"}), 0.0, 0.1)
 
 

@@ -28,7 +28,10 @@ def test_every_shot_within_2e_5_degrees_of_the_official_file(official, model_4s)
     assert len(model_4s) == len(official) == 400_000
     np.testing.assert_allclose(model_4s.t_s, official.t_s, rtol=0, atol=1e-9)
     error_deg = angle_between_deg(model_4s.dirs, official.dirs)
-    print(f"risley vs official Mid-40, 400,000 shots: max {error_deg.max():.2e} deg, rms {np.sqrt(np.mean(error_deg**2)):.2e} deg")
+    print(
+        f"risley vs official Mid-40, 400,000 shots: max {error_deg.max():.2e} deg, rms "
+        f"{np.sqrt(np.mean(error_deg**2)):.2e} deg"
+    )
     assert error_deg.max() < 2e-5
 
 
@@ -36,7 +39,10 @@ def test_every_shot_within_2e_5_degrees_of_the_official_file(official, model_4s)
 def test_coverage_curve_within_one_point_of_the_official_file(official, model_4s, cell_deg):
     model = sp.coverage_curve(model_4s, 38.4, sp.COVERAGE_TIMES_S, cell_deg)
     reference = sp.coverage_curve(official, 38.4, sp.COVERAGE_TIMES_S, cell_deg)
-    print(f"{cell_deg} deg cells: official {np.round(reference * 100, 2)} %, max diff {np.abs(model - reference).max() * 100:.4f} points")
+    print(
+        f"{cell_deg} deg cells: official {np.round(reference * 100, 2)} %, "
+        f"max diff {np.abs(model - reference).max() * 100:.4f} points"
+    )
     assert np.all(np.abs(model - reference) <= 0.01)
     assert np.all(np.diff(model) >= 0) and model[0] > 0
 
@@ -62,7 +68,7 @@ def test_fit_recovers_the_stored_parameters_from_the_file_alone():
 
 def test_spectrum_shows_two_prisms_turning_opposite_ways():
     pattern = load_pattern_file("mid40")
-    (hz1, amp1, _), (hz2, amp2, _) = fit_risley.spectral_lines(pattern.t_s, pattern.dirs)
+    (hz1, _, _), (hz2, _, _) = fit_risley.spectral_lines(pattern.t_s, pattern.dirs)
     assert np.sign(hz1) != np.sign(hz2)
     assert sorted(abs(60 * np.array([hz1, hz2]))) == pytest.approx(sorted(np.abs(risley.MID40.rpm)), abs=20)
 
@@ -104,7 +110,9 @@ def test_keeps_covering_new_cells_after_4_s_while_the_looped_file_does_not():
     times = (4.0, 8.0, 16.0)
     model = sp.coverage_curve(risley_16, 38.4, times, cell_deg=0.05)
     looped = sp.coverage_curve(replay_16, 38.4, times, cell_deg=0.05)
-    print(f"0.05 deg cells at 4, 8, 16 s: risley {np.round(model * 100, 1)} %, looped file {np.round(looped * 100, 1)} %")
+    print(
+        f"0.05 deg cells at 4, 8, 16 s: risley {np.round(model * 100, 1)} %, looped file {np.round(looped * 100, 1)} %"
+    )
     assert model[1] > model[0] + 0.1 and model[2] > model[1] + 0.1
     assert looped[2] == looped[0]
 

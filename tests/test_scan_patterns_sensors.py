@@ -20,7 +20,7 @@ def test_the_issue_presets_are_registered():
 
 
 def test_unknown_sensor_names_the_known_ones():
-    with pytest.raises(ValueError, match="^unknown sensor 'mid41'; known: .*mid40-risley"):
+    with pytest.raises(ValueError, match=r"^unknown sensor 'mid41'; known: .*mid40-risley"):
         sp.get_sensor("mid41")
     with pytest.raises(KeyError):  # a failed lookup, too
         sp.get_sensor("mid41")
@@ -41,7 +41,9 @@ def test_livox_angles_follow_gazebo_plugin_convention():
 
 def test_head_yaw_and_pitch_turn_the_boresight():
     np.testing.assert_allclose(head_rotation(30.0, 0.0) @ [1, 0, 0], [np.cos(np.pi / 6), 0.5, 0], atol=1e-12)
-    np.testing.assert_allclose(head_rotation(0.0, 10.0) @ [1, 0, 0], [np.cos(0.1745329), 0, np.sin(0.1745329)], atol=1e-6)
+    np.testing.assert_allclose(
+        head_rotation(0.0, 10.0) @ [1, 0, 0], [np.cos(0.1745329), 0, np.sin(0.1745329)], atol=1e-6
+    )
 
 
 def test_custom_sensor_from_a_mapping_extends_a_preset():

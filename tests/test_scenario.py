@@ -39,8 +39,14 @@ def test_shipped_scenarios_are_valid(path):
         ({"name": "x", "sensors": [{"pose": {"pitch": 120}}]}, "'sensors.0.pose.pitch'"),
         ({"name": "x", "dataset": {"format": "las"}}, "'dataset.format'"),
         ({"name": "x", "sensors": [{"preset": "mid999"}]}, "sensors.0.preset: unknown sensor preset 'mid999'"),
-        ({"name": "x", "custom_sensors": [{"name": "w", "heads": [{"like": "mid40-rose", "fov_deg": 200}]}]}, "'custom_sensors.0.heads.0.fov_deg'"),
-        ({"name": "x", "custom_sensors": [{"name": "w", "heads": [{"pattern": "spiral"}]}]}, "'custom_sensors.0.heads.0.pattern'"),
+        (
+            {"name": "x", "custom_sensors": [{"name": "w", "heads": [{"like": "mid40-rose", "fov_deg": 200}]}]},
+            "'custom_sensors.0.heads.0.fov_deg'",
+        ),
+        (
+            {"name": "x", "custom_sensors": [{"name": "w", "heads": [{"pattern": "spiral"}]}]},
+            "'custom_sensors.0.heads.0.pattern'",
+        ),
         (["a", "list"], "expected a mapping"),
     ],
 )
@@ -77,7 +83,9 @@ def test_custom_sensor_from_the_scenario():
     scenario = parse_scenario(
         {
             "name": "x",
-            "custom_sensors": [{"name": "wide", "heads": [{"like": "mid40-rose", "fov_deg": 90, "shots_per_s": 50000}]}],
+            "custom_sensors": [
+                {"name": "wide", "heads": [{"like": "mid40-rose", "fov_deg": 90, "shots_per_s": 50000}]}
+            ],
             "sensors": [{"preset": "wide"}, {"preset": "mid40-risley", "name": "second"}],
         }
     )

@@ -1,4 +1,5 @@
-"""`simgen-train study` end to end on a tiny generated dataset, its reuse of data and models, and its one-line errors."""
+"""`simgen-train study` end to end on a tiny generated dataset, its reuse of data and models, and its one-line
+errors."""
 
 from __future__ import annotations
 
@@ -46,7 +47,9 @@ def study(tmp_path_factory):
     write_scenario(scenario)
     configs.mkdir()
     for fusion in ("single", "early", "late"):  # eval_every 1: a learning curve point after each iteration
-        (configs / f"{fusion}.yaml").write_text(yaml.safe_dump(tiny_config(fusion, eval_every=1).model_dump(mode="json")))
+        (configs / f"{fusion}.yaml").write_text(
+            yaml.safe_dump(tiny_config(fusion, eval_every=1).model_dump(mode="json"))
+        )
     code, stdout, stderr = run_study(scenario, "-o", out, "--datasets", datasets, "--configs", configs,
                                      "--iterations", 2, "--models", "late,single,early", "--quiet")
     assert code == 0, stderr[-2000:]
@@ -106,14 +109,14 @@ def test_a_checkpoint_is_reused_when_only_inference_settings_change(study, tmp_p
     late = yaml.safe_load((configs / "late.yaml").read_text())
     late["infer"]["score_threshold"], late["train"]["eval_every"] = 0.3, 0
     (tmp_path / "configs" / "late.yaml").write_text(yaml.safe_dump(late))
-    code, _, stderr = run_study(scenario, "-o", tmp_path / "out", "--datasets", datasets, "--configs", tmp_path / "configs",
-                                "--iterations", 2, "--quiet")
+    code, _, stderr = run_study(scenario, "-o", tmp_path / "out", "--datasets", datasets,
+                                "--configs", tmp_path / "configs", "--iterations", 2, "--quiet")
     assert code == 0, stderr[-2000:]
     assert "late 2 iterations x batch 2 (checkpoint reused)" in (tmp_path / "out" / "table1.md").read_text()
     late["train"]["lr"] = 0.001  # this one changes the weights: trained again
     (tmp_path / "configs" / "late.yaml").write_text(yaml.safe_dump(late))
-    code, _, stderr = run_study(scenario, "-o", tmp_path / "out", "--datasets", datasets, "--configs", tmp_path / "configs",
-                                "--iterations", 2, "--quiet")
+    code, _, stderr = run_study(scenario, "-o", tmp_path / "out", "--datasets", datasets,
+                                "--configs", tmp_path / "configs", "--iterations", 2, "--quiet")
     assert code == 0 and "(checkpoint reused)" not in (tmp_path / "out" / "table1.md").read_text()
 
 
@@ -129,13 +132,19 @@ def test_the_paper_preset_runs_table1s_five_rows_and_table2(study, tmp_path, mon
     monkeypatch.setitem(train.cli.PRESETS, "paper", (configs, (("tiny.yaml", ("single", "early", "late")),
                                                                ("tiny_x2.yaml", ("single", "late")))))
     monkeypatch.setattr(train.cli, "SCENARIOS", folder)
-    code, stdout, stderr = run_study("--preset", "paper", "-o", tmp_path / "out", "--datasets", datasets, "--iterations", 1,
+    code, _, stderr = run_study("--preset", "paper", "-o", tmp_path / "out", "--datasets", datasets, "--iterations", 1,
                                      "--quiet")
     assert code == 0, stderr[-2000:]
     for name, methods in (("tiny", METHODS), ("tiny_x2", ("Single Frame (x2)", "Late Fusion (x2)"))):
         tables = (tmp_path / "out" / name / "table1.md").read_text().split("\n\n")  # all boxes, visible boxes, ...
-        rows = [[line.split(" | ")[0][2:] for line in table.splitlines() if line.startswith("| ") and " (x" in line.split(" | ")[0]]
-                for table in tables]
+        rows = [
+            [
+                line.split(" | ")[0][2:]
+                for line in table.splitlines()
+                if line.startswith("| ") and " (x" in line.split(" | ")[0]
+            ]
+            for table in tables
+        ]
         assert [r for r in rows if r] and all(r == list(methods) for r in rows if r)
         assert (tmp_path / "out" / name / "table2.md").is_file()
 
@@ -151,7 +160,10 @@ def test_preset_and_scenario_are_exclusive(study):
 def test_table2_has_every_tracker_at_both_ious(study):
     _, _, _, out, _ = study
     text = (out / "table2.md").read_text()
-    assert "## 3D IoU >= 0.25, filtered tracklets" in text and "## 3D IoU >= 0.5, unfiltered tracklets, for comparison" in text
+    assert (
+        "## 3D IoU >= 0.25, filtered tracklets" in text
+        and "## 3D IoU >= 0.5, unfiltered tracklets, for comparison" in text
+    )
     assert "each tracker gets its own filter, chosen on the train clips" in text
     rows = list(csv.DictReader(open(out / "table2.csv")))
     names = [c.name for c in load_tracker_configs(TRACKER_CONFIGS)]
@@ -173,18 +185,22 @@ def test_table2_has_every_tracker_at_both_ious(study):
         (name, kind, iou) for kind in ("filtered", "unfiltered") for name in names for iou in ("0.25", "0.5")
     ]
     assert names[:3] == ["AB3DMOT", "AB3DMOT (player Kalman)", "3D DIoU"] and names[-1] == FULL_TRACKER
-    assert all(0.0 <= float(r[k]) <= 1.0 for r in rows for k in ("samota", "amota", "amotp", "motp", "hota", "centre_hota"))
+    assert all(
+        0.0 <= float(r[k]) <= 1.0 for r in rows for k in ("samota", "amota", "amotp", "motp", "hota", "centre_hota")
+    )
     assert all(int(r["n_gt"]) > 0 and int(r["tp"]) + int(r["fn"]) == int(r["n_gt"]) for r in rows)
     assert (out / "late" / "tracklets" / "clip_0001.npz").is_file()
 
 
 def test_a_second_study_reuses_the_dataset_and_the_late_checkpoint(study):
     scenario, configs, datasets, out, _ = study
-    code, _, stderr = run_study(scenario, "-o", out, "--datasets", datasets, "--configs", configs, "--iterations", 2, "--quiet")
+    code, _, stderr = run_study(
+        scenario, "-o", out, "--datasets", datasets, "--configs", configs, "--iterations", 2, "--quiet"
+    )
     assert code == 0, stderr[-2000:]
     text = (out / "table1.md").read_text()
     assert "reused (same resolved scenario)" in text and "late 2 iterations x batch 2 (checkpoint reused)" in text
-    assert [line for line in text.splitlines() if "(x1) |" in line][0].startswith("| Late Fusion (x1) |")
+    assert next(line for line in text.splitlines() if "(x1) |" in line).startswith("| Late Fusion (x1) |")
 
 
 @pytest.mark.parametrize(
@@ -222,7 +238,7 @@ def test_seeds_and_the_frame_split(study, tmp_path):
         assert "Not run: with the frame split" in (out / f"seed_{seed}" / "table2.md").read_text()
     table1 = (out / "table1.md").read_text()
     assert "over training seeds 0, 1" in table1 and "Late Fusion > Single Frame: holds in" in table1
-    rows = [line for line in table1.splitlines() if line.startswith("| Late Fusion") or line.startswith("| Single Frame")]
+    rows = [line for line in table1.splitlines() if line.startswith(("| Late Fusion", "| Single Frame"))]
     assert len(rows) == 2 and all(" ± " in row for row in rows)
     assert "Not run" in (out / "table2.md").read_text()
     code, _, stderr = run_study(scenario, "-o", out, "--seeds", "0,0", "--quiet")

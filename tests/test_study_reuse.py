@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-
 from simgen.scenario import load_scenario
 from tests.support import ROOT
 from train.study import StudyDataset, _same_data

@@ -5,8 +5,14 @@ import pytest
 import yaml
 
 from simgen.errors import UserError
-from tests.support.tracking_clips import (FLOOD, FULL_TRACKER, NOISY_DETECTOR, PlayersConfig, make_tracklets,
-                                         simulate_players)
+from tests.support.tracking_clips import (
+    FLOOD,
+    FULL_TRACKER,
+    NOISY_DETECTOR,
+    PlayersConfig,
+    make_tracklets,
+    simulate_players,
+)
 from train.nms import nms_bev, nms_centre
 from train.study import TRACKER_CONFIGS
 from train.tracking.ab3dmot import Ab3dmot
@@ -119,7 +125,11 @@ def test_choose_filter_takes_the_best_samota_on_the_clips_given():
         twin = past + [0, 2.0, 0, 0, 0, 0, 0]
         frames.append(Tracklets(np.concatenate([past, twin]), np.full(16, 0.9)))
     reference = load_tracker_configs(TRACKER_CONFIGS)[-1]
-    grid = [TrackletFilter(0.1, "bev_iou", 0.01), TrackletFilter(0.1, "centre", 2.5), TrackletFilter(0.1, "centre", 20.0)]
+    grid = [
+        TrackletFilter(0.1, "bev_iou", 0.01),
+        TrackletFilter(0.1, "centre", 2.5),
+        TrackletFilter(0.1, "centre", 20.0),
+    ]
     chosen, scores = choose_filters([frames], [clip.frames()], [reference], grid)[reference.name]
     assert chosen == grid[1]
     assert scores[0].tracklets_per_frame > 15 and scores[1].tracklets_per_frame <= 8

@@ -48,7 +48,7 @@ def ids_over_time(out: list[TrackedFrame]) -> list[list[int]]:
 
 
 def test_new_trajectories_are_output_after_three_consecutive_frames():
-    flicker = walker(0.0, 0.3, range(0, 2))  # two frames, then gone
+    flicker = walker(0.0, 0.3, range(2))  # two frames, then gone
     steady = walker(20.0, 0.3, range(5, 12))
     out = run(DiouTracker(), frames_of(flicker, steady, n_frames=12))
     assert ids_over_time(out) == [[]] * 7 + [[1]] * 5
@@ -124,7 +124,7 @@ def meeting_tracklets(fuse: bool) -> tuple[list[Tracklets], np.ndarray]:
 
 
 def test_split_keeps_both_players_through_a_long_meeting():
-    frames, truth = meeting_tracklets(fuse=True)
+    frames, _ = meeting_tracklets(fuse=True)
     out = run(DiouTracker(), frames)
     first = {int(i): b for i, b in zip(out[5].ids, out[5].boxes)}
     left_id = min(first, key=lambda i: first[i][0])
@@ -247,7 +247,7 @@ def test_a_player_the_engine_places_elsewhere_is_born_again(config):
     """A restart: the player vanishes at x = 0 and walks on from x = 30 m. No tracker links the two (a jump of
     30 m is beyond every association gate): the old track ends, the new place is a new birth, as the
     study's ground truth counts it (`train.study.truth_frames`)."""
-    before = walker(0.0, 0.3, range(0, 10))
+    before = walker(0.0, 0.3, range(10))
     after = {f: boxes + [30.0, 0, 0, 0, 0, 0, 0] for f, boxes in walker(0.0, 0.3, range(10, 25)).items()}
     after = {f: boxes for f, boxes in after.items() if f >= 12}  # the detector's window no longer spans the jump
     out = track_clip(make_tracker(config), frames_of(before, after, n_frames=25))
@@ -261,7 +261,11 @@ def test_the_ground_truth_starts_a_new_identity_at_a_placement():
     from train.study import truth_frames
 
     def sample(t: int, placed: list[bool]) -> Sample:
-        return Sample("c", t, (), np.zeros((2, 3, 7), np.float32), np.ones((2, 3), bool), np.array([4, 9]), np.array(placed))
+        return Sample(
+            "c", t, (), np.zeros((2, 3, 7), np.float32), np.ones((2, 3), bool), np.array([4, 9]), np.array(placed)
+        )
 
-    frames = truth_frames([sample(2, [False, False]), sample(3, [True, False]), sample(4, [False, False]), sample(5, [True, True])])
+    frames = truth_frames(
+        [sample(2, [False, False]), sample(3, [True, False]), sample(4, [False, False]), sample(5, [True, True])]
+    )
     assert [f.ids.tolist() for f in frames] == [[0, 1], [2, 1], [2, 1], [3, 4]]

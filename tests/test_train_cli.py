@@ -16,7 +16,9 @@ from train.detections import read_tracklets
 
 def run_train(*args: object) -> subprocess.CompletedProcess:
     """The CLI as a user runs it, in its own process."""
-    return subprocess.run([sys.executable, "-m", "train.cli", *map(str, args)], capture_output=True, text=True, cwd=ROOT, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "train.cli", *map(str, args)], capture_output=True, text=True, cwd=ROOT, timeout=300
+    )
 
 
 def call_train(capsys, *args: object) -> tuple[int, str]:
@@ -55,7 +57,9 @@ def test_bf16_autocast_trains_on_cpu(trained, tmp_path):
     from train.fit import fit
 
     dataset, run = trained
-    bf16 = fit(tiny_config("late", iterations=2, bf16="on"), str(dataset), tmp_path, torch.device("cpu"), progress=False)
+    bf16 = fit(
+        tiny_config("late", iterations=2, bf16="on"), str(dataset), tmp_path, torch.device("cpu"), progress=False
+    )
     weights, plain = load_checkpoint(bf16.checkpoint).model, load_checkpoint(run / "checkpoint.pt").model
     assert all(torch.isfinite(w).all() for w in weights.values() if w.is_floating_point())
     assert not all(torch.equal(weights[k], plain[k]) for k in plain)
@@ -74,12 +78,18 @@ def test_a_learning_curve_without_val_clips_fails_before_training(trained, tmp_p
 @pytest.mark.engine
 def test_eval_writes_ap_for_the_three_boxes(trained, tmp_path, capsys):
     dataset, run = trained
-    code, err = call_train(capsys, "eval", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet")
+    code, err = call_train(
+        capsys, "eval", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet"
+    )
     assert code == 0, err
     rows = list(csv.DictReader(open(tmp_path / "ap.csv")))
     measures = [("bev", "0.5"), ("3d", "0.5"), ("centre", "0.25"), ("centre", "0.5"), ("centre", "1.0")]
     assert {(r["truth_set"], r["box"], r["iou"], r["threshold"], r["recall_points"]) for r in rows} == {
-        (s, b, i, d, p) for s in ("all", "visible") for b in ("t", "t-1", "t-2") for i, d in measures for p in ("40", "11")
+        (s, b, i, d, p)
+        for s in ("all", "visible")
+        for b in ("t", "t-1", "t-2")
+        for i, d in measures
+        for p in ("40", "11")
     }
     assert all(0.0 <= float(r["ap"]) <= 100.0 and int(r["truth"]) > 0 for r in rows)
     truth = {(r["truth_set"], r["box"]): int(r["truth"]) for r in rows}
@@ -89,7 +99,9 @@ def test_eval_writes_ap_for_the_three_boxes(trained, tmp_path, capsys):
 @pytest.mark.engine
 def test_detect_writes_tracklets_and_kitti_labels(trained, tmp_path, capsys):
     dataset, run = trained
-    code, err = call_train(capsys, "detect", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet")
+    code, err = call_train(
+        capsys, "detect", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet"
+    )
     assert code == 0, err
     tracklets = read_tracklets(tmp_path / "tracklets" / "clip_0000.npz")
     assert tracklets.boxes.shape[1:] == (3, 7) and tracklets.offsets.tolist() == [-2, -1, 0]

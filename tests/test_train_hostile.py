@@ -32,12 +32,36 @@ from tests.support.detector import smoke_dataset, tiny_config
 from tests.support.hostile import SETTINGS, assert_one_line_refusal, measured_process, refuse_generated, run_main
 from train.checkpoint import FORMAT, VERSION, Checkpoint, save_checkpoint
 from train.cli import main
-from train.config import (MAX_ANCHORS, MAX_BATCH, MAX_CHANNELS, MAX_DETECTIONS, MAX_GRID_CELLS, MAX_ITERATIONS, MAX_LAYERS,
-                          MAX_LR, MAX_PRE_NMS, MAX_RANGE_M, MAX_SEED, MAX_STRIDE, MAX_WORKERS, MIN_PILLAR_M, load_config,
-                          parse_config)
+from train.config import (
+    MAX_ANCHORS,
+    MAX_BATCH,
+    MAX_CHANNELS,
+    MAX_DETECTIONS,
+    MAX_GRID_CELLS,
+    MAX_ITERATIONS,
+    MAX_LAYERS,
+    MAX_LR,
+    MAX_PRE_NMS,
+    MAX_RANGE_M,
+    MAX_SEED,
+    MAX_STRIDE,
+    MAX_WORKERS,
+    MIN_PILLAR_M,
+    load_config,
+    parse_config,
+)
 from train.models.detector import Detector
-from train.preflight import (MAX_SEEDS, NMS_BYTES_PER_PAIR, check_memory, check_resume, check_workers, cpu_cores,
-                             estimate_memory, parameter_counts, parse_seeds)
+from train.preflight import (
+    MAX_SEEDS,
+    NMS_BYTES_PER_PAIR,
+    check_memory,
+    check_resume,
+    check_workers,
+    cpu_cores,
+    estimate_memory,
+    parameter_counts,
+    parse_seeds,
+)
 from train.tracking.config import MAX_TRACK_FRAMES
 
 DETECTOR_CONFIGS = 300
@@ -85,8 +109,8 @@ def _listing(folder: Path) -> list[str]:
 # --- values a field refuses ---------------------------------------------------------------------
 
 LETTERS = st.text(alphabet="qwxz", min_size=1, max_size=6)  # no number, bool or null that YAML or pydantic would read
-WRONG_TYPE = st.one_of(LETTERS, st.lists(st.integers(), min_size=1, max_size=3), st.just({"k": 1}), st.just(float("nan")),
-                       st.just(float("inf")), st.just(float("-inf")))
+WRONG_TYPE = st.one_of(LETTERS, st.lists(st.integers(), min_size=1, max_size=3), st.just({"k": 1}),
+                       st.just(float("nan")), st.just(float("inf")), st.just(float("-inf")))
 
 
 def _outside(lo: float, hi: float, integer: bool, strict_low: bool = False):
@@ -141,11 +165,23 @@ TUPLES = [
     (("model", "head", "anchor", "yaws_rad"), 2, -6.2832, 6.2832, False, False),
     (("loss", "loc_weights"), 3, 0.0, 1000.0, False, False),
 ]
-LITERALS = [("model", "fusion", "name"), ("model", "head", "tracklet_boxes"), ("model", "head", "name"),
-            ("model", "head", "box_coder", "name"), ("model", "pillar_encoder", "name"), ("model", "backbone_2d", "name"),
-            ("train", "bf16")]
-NAME_BAD = st.one_of(st.just(""), st.text(min_size=65, max_size=80, alphabet="ab"), st.sampled_from(["a\nb", "x\x00y", "\x1b[31m"]),
-                     st.integers(), st.lists(LETTERS, min_size=1), st.none())
+LITERALS = [
+    ("model", "fusion", "name"),
+    ("model", "head", "tracklet_boxes"),
+    ("model", "head", "name"),
+    ("model", "head", "box_coder", "name"),
+    ("model", "pillar_encoder", "name"),
+    ("model", "backbone_2d", "name"),
+    ("train", "bf16"),
+]
+NAME_BAD = st.one_of(
+    st.just(""),
+    st.text(min_size=65, max_size=80, alphabet="ab"),
+    st.sampled_from(["a\nb", "x\x00y", "\x1b[31m"]),
+    st.integers(),
+    st.lists(LETTERS, min_size=1),
+    st.none(),
+)
 
 
 def _set(data: dict, path: tuple, value: object) -> None:
@@ -165,11 +201,36 @@ def _detector_case(draw) -> tuple[str, dict | bytes]:
     """(kind, a detector config document or the bytes of one) that must be refused."""
     method = draw(st.sampled_from(["single", "early", "late"]))
     data = _tiny(method)
-    kind = draw(st.sampled_from(["number", "tuple element", "tuple length", "literal", "name", "classes", "unknown key",
-                                 "missing section", "section type", "grid cells", "anchors", "grid divisibility",
-                                 "upsampling sizes", "range order", "whole pillars", "augment scale", "anchor thresholds",
-                                 "detections beyond pre_nms", "box weights", "single-frame tracklet", "memory: batch",
-                                 "memory: one sample", "workers beyond cores", "yaml"]))
+    kind = draw(
+        st.sampled_from(
+            [
+                "number",
+                "tuple element",
+                "tuple length",
+                "literal",
+                "name",
+                "classes",
+                "unknown key",
+                "missing section",
+                "section type",
+                "grid cells",
+                "anchors",
+                "grid divisibility",
+                "upsampling sizes",
+                "range order",
+                "whole pillars",
+                "augment scale",
+                "anchor thresholds",
+                "detections beyond pre_nms",
+                "box weights",
+                "single-frame tracklet",
+                "memory: batch",
+                "memory: one sample",
+                "workers beyond cores",
+                "yaml",
+            ]
+        )
+    )
     if kind == "number":
         path, lo, hi, integer, strict = draw(st.sampled_from(NUMBERS))
         _set(data, path, draw(_outside(lo, hi, integer, strict)))
@@ -177,12 +238,17 @@ def _detector_case(draw) -> tuple[str, dict | bytes]:
     if kind == "tuple element":
         path, length, lo, hi, integer, strict = draw(st.sampled_from(TUPLES))
         values = list(_get(data, path))[:length] or [lo] * length
-        values[draw(st.integers(0, len(values) - 1))] = draw(_outside(lo, hi, integer, strict).filter(lambda v: v is not None))
+        values[draw(st.integers(0, len(values) - 1))] = draw(
+            _outside(lo, hi, integer, strict).filter(lambda v: v is not None)
+        )
         _set(data, path, values)
         return f"element {'.'.join(path)}", data
     if kind == "tuple length":
-        path, length, lo, *_ = draw(st.sampled_from([t for t in TUPLES if t[0] not in (("model", "head", "anchor", "yaws_rad"),
-                                                                                        ("loss", "loc_weights"))]))
+        path, length, lo, *_ = draw(
+            st.sampled_from(
+                [t for t in TUPLES if t[0] not in (("model", "head", "anchor", "yaws_rad"), ("loss", "loc_weights"))]
+            )
+        )
         _set(data, path, [lo + 1] * draw(st.integers(0, 9).filter(lambda n: n != length)))
         return "tuple length", data
     if kind == "literal":
@@ -193,11 +259,18 @@ def _detector_case(draw) -> tuple[str, dict | bytes]:
         data["name"] = draw(NAME_BAD)
         return "name", data
     if kind == "classes":
-        data["data"]["classes"] = draw(st.one_of(st.just([]), st.lists(st.just("Pedestrian"), min_size=17, max_size=30),
-                                                 st.lists(NAME_BAD.filter(lambda v: v is not None), min_size=1, max_size=3)))
+        data["data"]["classes"] = draw(
+            st.one_of(
+                st.just([]),
+                st.lists(st.just("Pedestrian"), min_size=17, max_size=30),
+                st.lists(NAME_BAD.filter(lambda v: v is not None), min_size=1, max_size=3),
+            )
+        )
         return "classes", data
     if kind == "unknown key":
-        section = draw(st.sampled_from([(), ("data",), ("model",), ("model", "head"), ("train",), ("infer",), ("loss",)]))
+        section = draw(
+            st.sampled_from([(), ("data",), ("model",), ("model", "head"), ("train",), ("infer",), ("loss",)])
+        )
         target = _get(data, section) if section else data
         target[draw(LETTERS.map(lambda s: "unknown_" + s))] = 1
         return kind, data
@@ -205,8 +278,9 @@ def _detector_case(draw) -> tuple[str, dict | bytes]:
         del data[draw(st.sampled_from(["model", "name"]))]
         return kind, data
     if kind == "section type":
-        data[draw(st.sampled_from(["data", "model", "train", "infer", "loss"]))] = draw(st.one_of(LETTERS, st.integers(),
-                                                                                                 st.lists(st.integers(), min_size=1)))
+        data[draw(st.sampled_from(["data", "model", "train", "infer", "loss"]))] = draw(
+            st.one_of(LETTERS, st.integers(), st.lists(st.integers(), min_size=1))
+        )
         return kind, data
     if kind == "grid cells":  # range / pillar size beyond MAX_GRID_CELLS
         size = draw(st.floats(MIN_PILLAR_M, 0.5))
@@ -239,9 +313,13 @@ def _detector_case(draw) -> tuple[str, dict | bytes]:
         data["data"]["pillar_size_m"] = draw(st.sampled_from([0.3, 0.33, 0.7, 0.15, 0.45]))
         return kind, data
     if kind == "augment scale":
-        data["data"]["augment"]["scale"] = draw(st.one_of(st.tuples(st.floats(0.5, 2), st.floats(0.01, 0.49)).map(list),
-                                                          st.tuples(st.floats(-5, 0), st.floats(0.5, 2)).map(list),
-                                                          st.tuples(st.floats(0.5, 2), st.floats(10.01, 1e6)).map(list)))
+        data["data"]["augment"]["scale"] = draw(
+            st.one_of(
+                st.tuples(st.floats(0.5, 2), st.floats(0.01, 0.49)).map(list),
+                st.tuples(st.floats(-5, 0), st.floats(0.5, 2)).map(list),
+                st.tuples(st.floats(0.5, 2), st.floats(10.01, 1e6)).map(list),
+            )
+        )
         return kind, data
     if kind == "anchor thresholds":
         match = draw(st.floats(0.05, 0.95))
@@ -298,7 +376,9 @@ def _beyond_any_machine(data: dict) -> int:
 def _yaml_case(draw) -> tuple[str, bytes]:
     """Documents the YAML reader refuses whatever the schema."""
     base = yaml.safe_dump(_tiny("late"))
-    kind = draw(st.sampled_from(["laughs", "deep", "duplicate", "oversize", "malformed", "not a mapping", "tag", "not UTF-8"]))
+    kind = draw(
+        st.sampled_from(["laughs", "deep", "duplicate", "oversize", "malformed", "not a mapping", "tag", "not UTF-8"])
+    )
     if kind == "laughs":
         width = draw(st.integers(4, 12))
         levels = next(n for n in range(1, 40) if width**n > MAX_YAML_NODES) + draw(st.integers(0, 2))
@@ -348,7 +428,17 @@ def test_generated_hostile_detector_configs_are_refused_in_one_line(world):
     def run_case(case):
         kind, document = case
         _write(config, document)
-        return kind, ["fit", config, "--dataset", world["dataset"], "-o", world["out"] / "run", "--quiet", "--device", "cpu"]
+        return kind, [
+            "fit",
+            config,
+            "--dataset",
+            world["dataset"],
+            "-o",
+            world["out"] / "run",
+            "--quiet",
+            "--device",
+            "cpu",
+        ]
 
     kinds = _check_generated(world, _detector_case(), DETECTOR_CONFIGS, run_case)
     config.unlink()
@@ -357,12 +447,19 @@ def test_generated_hostile_detector_configs_are_refused_in_one_line(world):
 
 # --- tracker configs ------------------------------------------------------------------------------
 
-TRACKER = {"name": "hostile", "association": {"method": "tracklet_diou", "lower_bound": -0.125, "dying_lower_bound": -0.5,
-                                              "weights": [0.4, 0.6]},
-           "life_cycle": {"birth_death": True, "min_hits": 3, "max_misses": 6, "backfill": True, "output_dying": True},
-           "motion_model": "kalman_player", "split": True}
-TRACKER_NUMBERS = [(("association", "lower_bound"), -1.0, 1.0, False), (("association", "dying_lower_bound"), -1.0, 1.0, False),
-                   (("life_cycle", "min_hits"), 1, MAX_TRACK_FRAMES, True), (("life_cycle", "max_misses"), 0, MAX_TRACK_FRAMES, True)]
+TRACKER = {
+    "name": "hostile",
+    "association": {"method": "tracklet_diou", "lower_bound": -0.125, "dying_lower_bound": -0.5, "weights": [0.4, 0.6]},
+    "life_cycle": {"birth_death": True, "min_hits": 3, "max_misses": 6, "backfill": True, "output_dying": True},
+    "motion_model": "kalman_player",
+    "split": True,
+}
+TRACKER_NUMBERS = [
+    (("association", "lower_bound"), -1.0, 1.0, False),
+    (("association", "dying_lower_bound"), -1.0, 1.0, False),
+    (("life_cycle", "min_hits"), 1, MAX_TRACK_FRAMES, True),
+    (("life_cycle", "max_misses"), 0, MAX_TRACK_FRAMES, True),
+]
 
 
 @st.composite
@@ -382,7 +479,9 @@ def _tracker_case(draw) -> tuple[str, object]:
             st.lists(st.floats(0, 1), max_size=5).filter(lambda w: len(w) != 2), WRONG_TYPE))
         return kind, data
     if kind == "literal":
-        path = draw(st.sampled_from([("association", "method"), ("motion_model",), ("split",), ("life_cycle", "birth_death")]))
+        path = draw(
+            st.sampled_from([("association", "method"), ("motion_model",), ("split",), ("life_cycle", "birth_death")])
+        )
         _set(data, path, draw(st.one_of(LETTERS, st.integers(2, 100), st.none())))
         return kind, data
     if kind == "name":
@@ -393,8 +492,20 @@ def _tracker_case(draw) -> tuple[str, object]:
         (_get(data, section) if section else data)[draw(LETTERS.map(lambda s: "unknown_" + s))] = 1
         return kind, data
     if kind == "missing key":
-        path = draw(st.sampled_from([("name",), ("association",), ("life_cycle",), ("motion_model",), ("split",),
-                                     ("association", "method"), ("association", "lower_bound"), ("life_cycle", "birth_death")]))
+        path = draw(
+            st.sampled_from(
+                [
+                    ("name",),
+                    ("association",),
+                    ("life_cycle",),
+                    ("motion_model",),
+                    ("split",),
+                    ("association", "method"),
+                    ("association", "lower_bound"),
+                    ("life_cycle", "birth_death"),
+                ]
+            )
+        )
         del (_get(data, path[:-1]) if len(path) > 1 else data)[path[-1]]
         return kind, data
     if kind == "iou_3d modules":
@@ -432,9 +543,25 @@ def test_generated_hostile_tracker_configs_are_refused_in_one_line(world):
             where = world["a_file"]
         else:
             _write(hostile, document)
-        return kind, ["study", ROOT / "scenarios" / "smoke.yaml", "-o", world["out"] / "study", "--datasets", world["datasets"],
-                      "--configs", world["configs"], "--trackers", where, "--iterations", 1, "--workers", 0, "--quiet",
-                      "--device", "cpu"]
+        return kind, [
+            "study",
+            ROOT / "scenarios" / "smoke.yaml",
+            "-o",
+            world["out"] / "study",
+            "--datasets",
+            world["datasets"],
+            "--configs",
+            world["configs"],
+            "--trackers",
+            where,
+            "--iterations",
+            1,
+            "--workers",
+            0,
+            "--quiet",
+            "--device",
+            "cpu",
+        ]
 
     try:
         kinds = _check_generated(world, _tracker_case(), TRACKER_CONFIGS, run_case)
@@ -451,7 +578,14 @@ def _checkpoint_case(draw) -> tuple[str, object]:
     """(kind, a checkpoint payload to torch.save, or bytes) that `eval` and `detect` must refuse."""
     config = parse_config(_tiny("late"))
     state = Detector(config).state_dict() if draw(st.booleans()) else {"w": torch.zeros(1)}
-    payload = {"format": FORMAT, "version": VERSION, "config": _tiny("late"), "model": state, "optimizer": None, "iteration": 1}
+    payload = {
+        "format": FORMAT,
+        "version": VERSION,
+        "config": _tiny("late"),
+        "model": state,
+        "optimizer": None,
+        "iteration": 1,
+    }
     kind = draw(st.sampled_from(["config", "format", "version", "model", "iteration", "optimizer", "missing", "payload",
                                  "bytes", "weights", "memory: inference"]))
     kind = f"{draw(st.sampled_from(['eval', 'detect']))} {kind}"
@@ -467,7 +601,9 @@ def _checkpoint_case(draw) -> tuple[str, object]:
     elif kind.endswith(" model"):
         payload["model"] = draw(st.sampled_from([[1, 2], "weights", {"w": 1.5}, {1: torch.zeros(1)}, None]))
     elif kind.endswith(" iteration"):
-        payload["iteration"] = draw(st.one_of(st.integers(max_value=-1), LETTERS, st.just(1.5), st.none(), st.just(True)))
+        payload["iteration"] = draw(
+            st.one_of(st.integers(max_value=-1), LETTERS, st.just(1.5), st.none(), st.just(True))
+        )
     elif kind.endswith(" optimizer"):
         payload["optimizer"] = draw(st.one_of(LETTERS, st.lists(st.integers(), min_size=1), st.integers()))
     elif kind.endswith(" missing"):
@@ -475,7 +611,9 @@ def _checkpoint_case(draw) -> tuple[str, object]:
     elif kind.endswith(" payload"):
         payload = draw(st.sampled_from([[1, 2, 3], "checkpoint", 42, None, {"format": FORMAT}]))
     elif kind.endswith(" bytes"):
-        return kind, draw(st.sampled_from([b"", b"\x80\x02not a checkpoint", b"PK\x03\x04" + b"\0" * 100, b"\x00" * 1000]))
+        return kind, draw(
+            st.sampled_from([b"", b"\x80\x02not a checkpoint", b"PK\x03\x04" + b"\0" * 100, b"\x00" * 1000])
+        )
     elif kind.endswith(" weights"):  # a well-formed checkpoint whose weights are another model's
         other = parse_config(_tiny(draw(st.sampled_from(["single", "early"]))))
         payload["model"] = Detector(other).state_dict()
@@ -495,8 +633,19 @@ def test_generated_hostile_checkpoints_are_refused_in_one_line(world):
             checkpoint.write_bytes(payload)
         else:
             torch.save(payload, checkpoint)
-        return kind, [kind.split()[0], checkpoint, "--dataset", world["dataset"], "-o", world["out"] / "eval", "--split", "all",
-                      "--quiet", "--device", "cpu"]
+        return kind, [
+            kind.split()[0],
+            checkpoint,
+            "--dataset",
+            world["dataset"],
+            "-o",
+            world["out"] / "eval",
+            "--split",
+            "all",
+            "--quiet",
+            "--device",
+            "cpu",
+        ]
 
     kinds = _check_generated(world, _checkpoint_case(), CHECKPOINTS, run_case)
     checkpoint.unlink()
@@ -513,21 +662,66 @@ BAD_COUNT = st.one_of(st.sampled_from(["x", "1.5", "1e3", "", "--", "0x10", "٣"
 def _argument_case(draw) -> tuple[str, list]:
     """(kind, arguments with placeholders) that must be refused."""
     command = draw(st.sampled_from(["fit", "eval", "detect", "study"]))
-    kind = draw(st.sampled_from(["count", "dataset", "output", "device", "missing option", "unknown option", "config file",
-                                 "checkpoint file", "split", "models", "scenario", "configs folder", "preset"]))
+    kind = draw(
+        st.sampled_from(
+            [
+                "count",
+                "dataset",
+                "output",
+                "device",
+                "missing option",
+                "unknown option",
+                "config file",
+                "checkpoint file",
+                "split",
+                "models",
+                "scenario",
+                "configs folder",
+                "preset",
+            ]
+        )
+    )
     if command == "fit":
         args = ["fit", "{configs}/late.yaml", "--dataset", "{dataset}", "-o", "{out}/fit", "--quiet", "--device", "cpu"]
     elif command in ("eval", "detect"):
-        args = [command, "{checkpoint}", "--dataset", "{dataset}", "-o", "{out}/eval", "--split", "all", "--quiet", "--device", "cpu"]
+        args = [
+            command,
+            "{checkpoint}",
+            "--dataset",
+            "{dataset}",
+            "-o",
+            "{out}/eval",
+            "--split",
+            "all",
+            "--quiet",
+            "--device",
+            "cpu",
+        ]
     else:
-        args = ["study", str(ROOT / "scenarios" / "smoke.yaml"), "-o", "{out}/study", "--datasets", "{datasets}", "--configs",
-                "{configs}", "--quiet", "--device", "cpu"]
+        args = [
+            "study",
+            str(ROOT / "scenarios" / "smoke.yaml"),
+            "-o",
+            "{out}/study",
+            "--datasets",
+            "{datasets}",
+            "--configs",
+            "{configs}",
+            "--quiet",
+            "--device",
+            "cpu",
+        ]
     if kind == "count" and command in ("fit", "study"):
         option = draw(st.sampled_from(["--iterations", "--workers"] + (["--seed"] if command == "study" else [])))
         high = {"--iterations": MAX_ITERATIONS, "--workers": MAX_WORKERS, "--seed": MAX_SEED}[option]
-        value = draw(st.one_of(BAD_COUNT, st.integers(high + 1, 10**30).map(str),
-                               *([st.just("0")] if option == "--iterations" else []),
-                               *([st.integers(cpu_cores() + 1, MAX_WORKERS).map(str)] if option == "--workers" else [])))
+        value = draw(
+            st.one_of(
+                BAD_COUNT,
+                st.integers(high + 1, 10**30).map(str),
+                *([st.just("0")] if option == "--iterations" else []),
+                *([st.integers(cpu_cores() + 1, MAX_WORKERS).map(str)] if option == "--workers" else []),
+            )
+        )
         return f"{command} {option}", args + [option, value]
     if kind == "dataset" and command != "study":
         at = args.index("--dataset") + 1
@@ -559,7 +753,10 @@ def _argument_case(draw) -> tuple[str, list]:
     if command != "study":
         return f"{command} unknown option", args + ["--bogus"]
     if kind == "models":
-        return "study --models", args + ["--models", draw(st.sampled_from(["single", "early", "late,bogus", "", ",", "late,late2"]))]
+        return "study --models", args + [
+            "--models",
+            draw(st.sampled_from(["single", "early", "late,bogus", "", ",", "late,late2"])),
+        ]
     if kind == "scenario":
         args[1] = draw(st.sampled_from(["/nonexistent.yaml", "/dev/zero", "{a_file}", "{configs}/late.yaml"]))
         return "study scenario", args
@@ -567,7 +764,8 @@ def _argument_case(draw) -> tuple[str, list]:
         args[args.index("--configs") + 1] = draw(st.sampled_from(["/nonexistent", "{trackers}", "{a_file}"]))
         return "study --configs", args
     if kind == "preset":
-        return "study --preset", args + ["--preset", draw(st.sampled_from(["paper", "bogus"]))]  # with a scenario: refused
+        # with a scenario: refused
+        return "study --preset", args + ["--preset", draw(st.sampled_from(["paper", "bogus"]))]
     return "study neither scenario nor preset", args[:1] + args[2:]
 
 
@@ -593,7 +791,8 @@ def test_generated_hostile_arguments_are_refused_in_one_line(world):
     ({("data", "point_range_m"): [-1e9, -1e9, -0.1, 1e9, 1e9, 2.5]}, [], "'data.point_range_m.0'"),
     ({("train", "batch_size"): 100_000}, [], "'train.batch_size'"),
     ({("train", "batch_size"): 1000}, [], "'train.batch_size'"),  # within the static bound: the memory check refuses it
-    ({("data", "pillar_size_m"): 0.025}, [], "'data.pillar_size_m'"),  # 3,200 x 3,200 pillars: a sample needs over 50 GiB
+    # 3,200 x 3,200 pillars: a sample needs over 50 GiB
+    ({("data", "pillar_size_m"): 0.025}, [], "'data.pillar_size_m'"),
     ({}, ["--iterations", "-5"], "--iterations"),
     ({}, ["--workers", "100000"], "--workers"),
 ])
@@ -659,8 +858,8 @@ def watch() -> None:
 watcher = threading.Thread(target=watch)
 watcher.start()
 model = build_detector(config).train()
-samples = SampleSet(dataset, "train", config, draws=config.train.iterations * config.train.batch_size, assign=model.head.assigner)
-optimizer = torch.optim.AdamW(model.parameters(), lr=1e-3)
+samples = SampleSet(dataset, "train", config, draws=config.train.iterations * config.train.batch_size,
+assign=model.head.assigner) optimizer = torch.optim.AdamW(model.parameters(), lr=1e-3)
 for batch in loader(samples, config.train.batch_size, 0, model.head.assigner.collate):
     loss = detection_loss(model(batch).float(), batch.targets, config.loss).total
     optimizer.zero_grad()
@@ -700,7 +899,9 @@ def test_the_memory_estimate_bounds_a_real_training_step(world, data, tight):
     import simgen.datasets
     from train.preflight import dataset_points_per_frame
 
-    estimate = estimate_memory(config, dataset_points_per_frame(simgen.datasets.open(world["dataset"])), True, host=False)
+    estimate = estimate_memory(
+        config, dataset_points_per_frame(simgen.datasets.open(world["dataset"])), True, host=False
+    )
     needed = estimate.total(config.train.batch_size) - estimate.nms  # no learning curve: no NMS
     print(f"grown {grown / 2**20:.0f} MiB, estimate {needed / 2**20:.0f} MiB")
     assert grown <= needed
@@ -727,19 +928,30 @@ def test_check_memory_names_the_field_and_the_limit():
     with pytest.raises(UserError, match=r"^'infer.pre_nms': NMS of 500 boxes may need .* at most \d+ boxes here$"):
         check_memory(curve, 30_000, cpu, training=True, memory=int((with_nms.total(1) - with_nms.nms // 2) / 0.8))
     crowded = estimate_memory(config, 3_000_000, training=True, host=True)  # points dominate a sample
-    with pytest.raises(UserError, match=r"^'model.pillar_encoder.channels': 1 sample of up to 3,000,000 points a frame"):
+    with pytest.raises(
+        UserError, match=r"^'model.pillar_encoder.channels': 1 sample of up to 3,000,000 points a frame"
+    ):
         check_memory(config, 3_000_000, cpu, training=True, memory=int((crowded.fixed + crowded.per_sample) / 0.8) - 1)
     inference = estimate_memory(config, 30_000, training=False, host=True)
     assert inference.total(2) < estimate.total(2) and inference.nms == 500**2 * NMS_BYTES_PER_PAIR
     with pytest.raises(UserError, match=r"^'data.pillar_size_m': 2 samples of the 320 x 320 .* for inference"):
-        check_memory(config, 30_000, cpu, training=False, batch=2, memory=int((inference.fixed + 2 * inference.per_sample) / 0.8) - 1)
+        check_memory(
+            config,
+            30_000,
+            cpu,
+            training=False,
+            batch=2,
+            memory=int((inference.fixed + 2 * inference.per_sample) / 0.8) - 1,
+        )
 
 
 def test_workers_are_held_to_the_cores():
     cores = cpu_cores()
     config = parse_config(_tiny("late"))
     check_workers(config.model_copy(update={"train": config.train.model_copy(update={"workers": cores})}))
-    with pytest.raises(UserError, match=rf"^'train.workers': {cores + 1} loader processes, this machine has {cores} CPU cores"):
+    with pytest.raises(
+        UserError, match=rf"^'train.workers': {cores + 1} loader processes, this machine has {cores} CPU cores"
+    ):
         check_workers(config.model_copy(update={"train": config.train.model_copy(update={"workers": cores + 1})}))
 
 

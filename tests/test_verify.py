@@ -111,12 +111,19 @@ def test_label_problems_are_reported_at_their_file_and_line(tmp_path, verify_her
 def _frame(boxes, track_id, index=0, points=None, instance=None, num_points=None, velocity=None, placed=None) -> Frame:
     boxes = np.asarray(boxes, np.float32).reshape(-1, 7)
     points = np.zeros((0, 3), np.float32) if points is None else np.asarray(points, np.float32)
-    return Frame("c", index, points, np.zeros(len(points), np.uint8), boxes, np.array(["Pedestrian"] * len(boxes)),
-                 track_id=np.asarray(track_id, np.int32),
-                 instance_id=None if instance is None else np.asarray(instance, np.int32),
-                 num_points=None if num_points is None else np.asarray(num_points, np.int32),
-                 velocity_mps=np.zeros((len(boxes), 3), np.float32) if velocity is None else np.asarray(velocity, np.float32),
-                 discontinuity=None if placed is None else np.asarray(placed, bool))
+    return Frame(
+        "c",
+        index,
+        points,
+        np.zeros(len(points), np.uint8),
+        boxes,
+        np.array(["Pedestrian"] * len(boxes)),
+        track_id=np.asarray(track_id, np.int32),
+        instance_id=None if instance is None else np.asarray(instance, np.int32),
+        num_points=None if num_points is None else np.asarray(num_points, np.int32),
+        velocity_mps=np.zeros((len(boxes), 3), np.float32) if velocity is None else np.asarray(velocity, np.float32),
+        discontinuity=None if placed is None else np.asarray(placed, bool),
+    )
 
 
 def locate(frame, box):
@@ -158,8 +165,12 @@ def test_a_point_after_the_label_time_may_lie_in_the_next_frames_box():
     longer = [10.4, 5.0, 0.9, 1.0, 0.5, 1.8, 0.0]
 
     def frame(offset_s: float, index: int = 1, **extra) -> Frame:
-        return replace(_frame([BOX[:6] + [0.0]], [1], index=index, points=[foot], instance=[1], num_points=[1], **extra),
-                       time_s=1.0, label_time_s=1.05, time_offset_s=np.float32([offset_s]))
+        return replace(
+            _frame([BOX[:6] + [0.0]], [1], index=index, points=[foot], instance=[1], num_points=[1], **extra),
+            time_s=1.0,
+            label_time_s=1.05,
+            time_offset_s=np.float32([offset_s]),
+        )
 
     after, before = _frame([longer], [1], index=2), _frame([BOX[:6] + [0.0]], [1], index=0)
     assert count_problems(frame(0.09), locate, 0.05, TOL, before, after) == []
@@ -173,8 +184,12 @@ def test_track_ids_twice_missing_or_jumping():
     at = np.array([BOX, BOX], np.float32)
     moved = at.copy()
     moved[1, 0] += 2.0  # 2 m in 0.1 s: 20 m/s
-    tracks = [(0, np.array([1, 2]), at, None), (1, np.array([1, 2]), moved, None), (2, np.array([2, 2]), moved[[1, 1]], None),
-              (4, np.array([1]), at[:1], None)]
+    tracks = [
+        (0, np.array([1, 2]), at, None),
+        (1, np.array([1, 2]), moved, None),
+        (2, np.array([2, 2]), moved[[1, 1]], None),
+        (4, np.array([1]), at[:1], None),
+    ]
     found = [str(p) for p in track_problems(tracks, locate, 10.0, TOL)]
     assert found == [
         "labels.txt:12: track id 2 moved at 20.0 m/s since frame 0 (limit 12)",

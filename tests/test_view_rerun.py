@@ -34,7 +34,9 @@ def recording(tmp_path_factory):
         by_frame = dataset.reader(index="frame").select(*columns).to_arrow_table().sort_by("frame")
         by_time = dataset.reader(index="game_time").select(*columns).to_arrow_table().sort_by("game_time")
         entities = sorted({c.entity_path for c in schema.component_columns()})
-    by_time = by_time.set_column(by_time.schema.get_field_index("game_time"), "game_time", by_time["game_time"].cast(pa.int64()))
+    by_time = by_time.set_column(
+        by_time.schema.get_field_index("game_time"), "game_time", by_time["game_time"].cast(pa.int64())
+    )
     return simgen.datasets.open(root / "dataset"), entities, by_frame.to_pydict(), by_time.to_pydict()
 
 
@@ -50,9 +52,13 @@ def test_every_frame_has_its_points_and_boxes(recording):
     assert rows["frame"] == list(FRAMES)
     for row, index in enumerate(FRAMES):
         frame = data.frame("clip_0000", index)
-        np.testing.assert_array_equal(np.array(rows["/world/points:Points3D:positions"][row], np.float32), frame.points_m)
+        np.testing.assert_array_equal(
+            np.array(rows["/world/points:Points3D:positions"][row], np.float32), frame.points_m
+        )
         assert len(set(rows["/world/points:Points3D:colors"][row])) > 10  # coloured by intensity, not one colour
-        np.testing.assert_array_equal(np.array(rows["/world/boxes:Boxes3D:centers"][row], np.float32), frame.boxes[:, :3])
+        np.testing.assert_array_equal(
+            np.array(rows["/world/boxes:Boxes3D:centers"][row], np.float32), frame.boxes[:, :3]
+        )
         assert rows["/world/boxes:Boxes3D:labels"][row] == [str(t) for t in frame.track_id]
         headings = np.array(rows["/world/headings:Arrows3D:vectors"][row])
         np.testing.assert_allclose(np.arctan2(headings[:, 1], headings[:, 0]), frame.boxes[:, 6], atol=1e-6)
@@ -68,7 +74,9 @@ def test_points_are_at_the_sweep_start_and_boxes_at_the_label_time_as_in_the_bag
     frames = [data.frame("clip_0000", index) for index in FRAMES]
     assert _logged_at(rows, "/world/points:Points3D:positions") == [round(f.time_s * 1e9) for f in frames]
     boxes = _logged_at(rows, "/world/boxes:Boxes3D:centers")
-    assert boxes == _logged_at(rows, "/world/headings:Arrows3D:vectors") == [round(f.label_time_s * 1e9) for f in frames]
+    assert (
+        boxes == _logged_at(rows, "/world/headings:Arrows3D:vectors") == [round(f.label_time_s * 1e9) for f in frames]
+    )
     bag = tmp_path / "clip.mcap"
     assert main(["export", str(data.root), "-o", str(bag), "--frames", f"{FRAMES.start}:{FRAMES.stop}"]) == 0
     with bag.open("rb") as stream:
@@ -80,7 +88,10 @@ def test_points_are_at_the_sweep_start_and_boxes_at_the_label_time_as_in_the_bag
 def test_bad_rerun_arguments_are_one_line(tmp_path, capsys):
     write_dataset(tmp_path / "d", "parquet", [make_clip("clip_0000", 2)])
     assert main(["view", str(tmp_path / "d")]) == 2
-    assert capsys.readouterr().err == "simgen view: error: nothing to write: give -o OUT (pictures, exports) or --rerun FILE.rrd\n"
+    assert (
+        capsys.readouterr().err
+        == "simgen view: error: nothing to write: give -o OUT (pictures, exports) or --rerun FILE.rrd\n"
+    )
     assert main(["view", str(tmp_path / "d"), "--rerun", str(tmp_path / "clip.mp4")]) == 2
     assert "expected a file name ending in .rrd" in capsys.readouterr().err
     assert not list(tmp_path.glob("*.rrd")) and not list(tmp_path.glob(".*"))

@@ -53,7 +53,9 @@ def load_checkpoint(path: str | Path) -> Checkpoint:
         raise UserError(f"{path}: checkpoint version {payload.get('version')!r}, this simgen-train reads {VERSION}")
     config = parse_config(payload.get("config"), f"{path} (config)")
     model, optimizer, iteration = payload.get("model"), payload.get("optimizer"), payload.get("iteration")
-    if not isinstance(model, dict) or not all(isinstance(k, str) and isinstance(v, torch.Tensor) for k, v in model.items()):
+    if not isinstance(model, dict) or not all(
+        isinstance(k, str) and isinstance(v, torch.Tensor) for k, v in model.items()
+    ):
         raise UserError(f"{path}: its 'model' is not a state dict of tensors")
     if not (optimizer is None or isinstance(optimizer, dict)) or type(iteration) is not int or iteration < 0:
         raise UserError(f"{path}: its 'optimizer' or 'iteration' is not what simgen-train writes")

@@ -65,7 +65,7 @@ class AugmentConfig(_Strict):
     scale: tuple[float, float] = (0.95, 1.05)  # uniform factor range, each in (0, 10]
 
     @model_validator(mode="after")
-    def _ordered(self) -> "AugmentConfig":
+    def _ordered(self) -> AugmentConfig:
         if not 0.0 < self.scale[0] <= self.scale[1] <= 10.0:
             raise ValueError("'data.augment.scale': needs 0 < low <= high <= 10")
         return self
@@ -83,7 +83,7 @@ class DataConfig(_Strict):
     split: Literal["clip", "frame"] = "clip"
 
     @model_validator(mode="after")
-    def _grid(self) -> "DataConfig":
+    def _grid(self) -> DataConfig:
         x0, y0, z0, x1, y1, z1 = self.point_range_m
         if not (x0 < x1 and y0 < y1 and z0 < z1):
             raise ValueError("'data.point_range_m': needs x0 < x1, y0 < y1, z0 < z1")
@@ -126,13 +126,15 @@ class Backbone2dConfig(_Strict):
         return self.strides[0] // self.upsample_strides[0]
 
     @model_validator(mode="after")
-    def _common_size(self) -> "Backbone2dConfig":
+    def _common_size(self) -> Backbone2dConfig:
         total, sizes = 1, []
         for stride, up in zip(self.strides, self.upsample_strides):
             total *= stride
             sizes.append(total / up)
         if len(set(sizes)) != 1 or sizes[0] != int(sizes[0]):
-            raise ValueError("'model.backbone_2d': every block must upsample to the same size (strides / upsample_strides)")
+            raise ValueError(
+                "'model.backbone_2d': every block must upsample to the same size (strides / upsample_strides)"
+            )
         return self
 
 
@@ -173,7 +175,8 @@ Size = Annotated[float, Field(gt=0.0, le=20.0)]  # no object on a pitch is 20 m 
 class AnchorConfig(_Strict):
     size_m: tuple[Size, Size, Size] = (0.8, 0.8, 1.7)  # length, width, height
     z_m: Coordinate = 0.85  # centre height
-    yaws_rad: tuple[Angle, ...] = Field((0.0, 1.5708), min_length=1, max_length=MAX_ANCHORS_PER_CELL)  # anchors per cell
+    # anchors per cell
+    yaws_rad: tuple[Angle, ...] = Field((0.0, 1.5708), min_length=1, max_length=MAX_ANCHORS_PER_CELL)
     match_iou: float = Field(0.5, gt=0.0, le=1.0)  # BEV IoU with the box at t: positive at or above
     unmatch_iou: float = Field(0.35, ge=0.0, le=1.0)  # negative below; ignored between
 
@@ -206,7 +209,7 @@ class ModelConfig(_Strict):
         return METHODS[self.fusion.name]
 
     @model_validator(mode="after")
-    def _boxes(self) -> "ModelConfig":
+    def _boxes(self) -> ModelConfig:
         if self.fusion.input_frames == 1 and self.head.tracklet_boxes != 1:
             raise ValueError("'model.head.tracklet_boxes': a single-frame model regresses 1 box")
         return self
@@ -233,7 +236,8 @@ class TrainConfig(_Strict):
     workers: int = Field(2, ge=0, le=MAX_WORKERS)
     checkpoint_every: int = Field(500, ge=1, le=MAX_ITERATIONS)
     log_every: int = Field(10, ge=1, le=MAX_ITERATIONS)
-    eval_every: int = Field(0, ge=0, le=MAX_ITERATIONS)  # learning curve: AP on the val clips every this many iterations (0: none)
+    # learning curve: AP on the val clips every this many iterations (0: none)
+    eval_every: int = Field(0, ge=0, le=MAX_ITERATIONS)
     bf16: Literal["auto", "on", "off"] = "auto"  # bfloat16 autocast; auto: on CUDA only
 
 
@@ -254,35 +258,45 @@ class DetectorConfig(_Strict):
     infer: InferConfig = InferConfig()
 
     @model_validator(mode="after")
-    def _bounds(self) -> "DetectorConfig":
+    def _bounds(self) -> DetectorConfig:
         """Checks across fields, here so that the line names the field by its whole path."""
         x0, y0, _, x1, y1, _ = self.data.point_range_m
         size = self.data.pillar_size_m
         rows, cols = (y1 - y0) / size, (x1 - x0) / size
         if rows * cols > MAX_GRID_CELLS:
             finest = ((x1 - x0) * (y1 - y0) / MAX_GRID_CELLS) ** 0.5
-            raise ValueError(f"'data.pillar_size_m': {size:g} m makes a {rows:,.0f} x {cols:,.0f} pillar grid (range / pillar "
-                             f"size); at most {MAX_GRID_CELLS:,} pillars, so at least {finest:.6g} m for this point_range_m")
+            raise ValueError(
+                f"'data.pillar_size_m': {size:g} m makes a {rows:,.0f} x {cols:,.0f} pillar grid (range / pillar "
+                f"size); at most {MAX_GRID_CELLS:,} pillars, so at least {finest:.6g} m for this point_range_m"
+            )
         anchor, infer = self.model.head.anchor, self.infer
         if self.anchors > MAX_ANCHORS:
-            raise ValueError(f"'model.head.anchor.yaws_rad': {self.anchors:,} anchors ({len(anchor.yaws_rad)} per output cell); "
-                             f"at most {MAX_ANCHORS:,}")
+            raise ValueError(
+                f"'model.head.anchor.yaws_rad': {self.anchors:,} anchors ({len(anchor.yaws_rad)} per output cell); "
+                f"at most {MAX_ANCHORS:,}"
+            )
         if anchor.unmatch_iou > anchor.match_iou:
-            raise ValueError(f"'model.head.anchor.unmatch_iou': {anchor.unmatch_iou:g} is above match_iou {anchor.match_iou:g}")
+            raise ValueError(
+                f"'model.head.anchor.unmatch_iou': {anchor.unmatch_iou:g} is above match_iou {anchor.match_iou:g}"
+            )
         if infer.max_detections > infer.pre_nms:
-            raise ValueError(f"'infer.max_detections': {infer.max_detections} is more than the {infer.pre_nms} boxes NMS sees "
-                             f"(infer.pre_nms)")
+            raise ValueError(
+                f"'infer.max_detections': {infer.max_detections} is more than the {infer.pre_nms} boxes NMS sees "
+                f"(infer.pre_nms)"
+            )
         return self
 
     @model_validator(mode="after")
-    def _weights(self) -> "DetectorConfig":
+    def _weights(self) -> DetectorConfig:
         boxes = self.model.head.tracklet_boxes
         if len(self.loss.loc_weights) < boxes:
             raise ValueError(f"'loss.loc_weights': needs {boxes} weights")
         cells, strides = self.data.grid_size, self.model.backbone_2d.strides
         stride = strides[0] * strides[1] * strides[2]
         if any(c % stride for c in cells):
-            raise ValueError(f"'model.backbone_2d.strides': the {cells[0]}x{cells[1]} pillar grid must divide by {stride}")
+            raise ValueError(
+                f"'model.backbone_2d.strides': the {cells[0]}x{cells[1]} pillar grid must divide by {stride}"
+            )
         return self
 
     @property
@@ -311,7 +325,8 @@ def weight_fields(config: DetectorConfig) -> dict:
 
 
 def same_weights(a: DetectorConfig, b: DetectorConfig) -> bool:
-    """Whether training with `a` and with `b` gives the same weights (they differ at most in `infer` and NOT_WEIGHTS_TRAIN)."""
+    """Whether training with `a` and with `b` gives the same weights (they differ at most in `infer` and
+    NOT_WEIGHTS_TRAIN)."""
     return weight_fields(a) == weight_fields(b)
 
 

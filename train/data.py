@@ -77,7 +77,9 @@ def load_sample(dataset: simgen.datasets.Dataset, clip: str, index: int, config:
     placement are masked: they belong to another segment of its motion."""
     frames = dataset.sequence(clip, index, TRACKLET_FRAMES)
     if any(f.track_id is None for f in frames):
-        raise UserError(f"{dataset.root}: the detector needs track ids (write the dataset as parquet or kitti_tracking)")
+        raise UserError(
+            f"{dataset.root}: the detector needs track ids (write the dataset as parquet or kitti_tracking)"
+        )
     last = frames[-1]
     keep = np.isin(last.class_name, config.data.classes)
     track_id = last.track_id[keep].astype(np.int64)
@@ -183,20 +185,22 @@ class Batch:
     targets: Any  # the assigner's collated targets (train.models.target_assigner.BatchTargets), or None
     samples: tuple[Sample, ...]
 
-    def to(self, device: torch.device, non_blocking: bool = False) -> "Batch":
+    def to(self, device: torch.device, non_blocking: bool = False) -> Batch:
         targets = None if self.targets is None else self.targets.to(device, non_blocking=non_blocking)
         return replace(self, features=self.features.to(device, non_blocking=non_blocking),
                        pillar=self.pillar.to(device, non_blocking=non_blocking),
                        point_pillar=self.point_pillar.to(device, non_blocking=non_blocking), targets=targets)
 
-    def pin_memory(self) -> "Batch":
+    def pin_memory(self) -> Batch:
         """Page-locked copies, for asynchronous copies to a CUDA device (DataLoader(pin_memory=True) calls it)."""
         targets = None if self.targets is None else self.targets.pin_memory()
         return replace(self, features=self.features.pin_memory(), pillar=self.pillar.pin_memory(),
                        point_pillar=self.point_pillar.pin_memory(), targets=targets)
 
 
-def collate(items: list[Encoded], canvases: int, grid_cells: int, collate_targets: Callable[[list], Any] | None = None) -> Batch:
+def collate(
+    items: list[Encoded], canvases: int, grid_cells: int, collate_targets: Callable[[list], Any] | None = None
+) -> Batch:
     """Concatenate samples and group their points into pillars (indices with per-sample offsets, here in
     the loader's workers rather than on the model's device); targets go to `collate_targets`."""
     cells = np.concatenate([(b * canvases + e.canvas) * grid_cells + e.cells for b, e in enumerate(items)])

@@ -42,12 +42,16 @@ class ClipTracklets:
         return self.boxes[rows], self.scores[rows]
 
 
-def clip_tracklets(clip: str, frames: Sequence[int], boxes: Sequence[NDArray], scores: Sequence[NDArray]) -> ClipTracklets:
+def clip_tracklets(
+    clip: str, frames: Sequence[int], boxes: Sequence[NDArray], scores: Sequence[NDArray]
+) -> ClipTracklets:
     """Gather per-frame tracklets (boxes (n, K, 7), scores (n,)) into one table."""
     k = boxes[0].shape[1] if boxes else 1
     return ClipTracklets(
         clip=clip,
-        frame=np.concatenate([np.full(len(s), f, np.int64) for f, s in zip(frames, scores)]) if frames else np.zeros(0, np.int64),
+        frame=np.concatenate([np.full(len(s), f, np.int64) for f, s in zip(frames, scores)])
+        if frames
+        else np.zeros(0, np.int64),
         boxes=np.concatenate(boxes).astype(np.float32) if boxes else np.zeros((0, k, 7), np.float32),
         scores=np.concatenate(scores).astype(np.float32) if scores else np.zeros(0, np.float32),
         offsets=np.arange(1 - k, 1, dtype=np.int64),
@@ -73,7 +77,14 @@ def kitti_lines(boxes: NDArray[np.float32], scores: NDArray[np.float32]) -> list
     fields = kitti_boxes(boxes)
     lines = []
     for i, score in enumerate(scores):
-        numbers = [fields["alpha"][i], *fields["bbox"][i], *fields["dims"][i], *fields["location"][i], fields["ry"][i], score]
+        numbers = [
+            fields["alpha"][i],
+            *fields["bbox"][i],
+            *fields["dims"][i],
+            *fields["location"][i],
+            fields["ry"][i],
+            score,
+        ]
         lines.append(f"{KITTI_CLASS} 0 0 " + " ".join(f"{v:.4f}" for v in numbers))
     return lines
 

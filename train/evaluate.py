@@ -54,7 +54,9 @@ def predict(model: Detector, config: DetectorConfig, dataset: str, split: str | 
     batches = loader(samples, EVAL_BATCH, config.train.workers)
     total = -(-len(samples) // EVAL_BATCH)
     with torch.no_grad():
-        for batch in tqdm(batches, total=total, desc=f"detect {config.name}", unit="batch", disable=not progress, dynamic_ncols=True):
+        for batch in tqdm(
+            batches, total=total, desc=f"detect {config.name}", unit="batch", disable=not progress, dynamic_ncols=True
+        ):
             yield from zip(batch.samples, postprocess(model(batch.to(device)), anchors, config))
 
 
@@ -168,7 +170,9 @@ def detect(model: Detector, config: DetectorConfig, dataset: str, split: str | N
     (out / "tracklets").mkdir(parents=True, exist_ok=True)
     written = []
     for clip, frames in by_clip.items():
-        tracklets = clip_tracklets(clip, [f for f, _ in frames], [d.boxes for _, d in frames], [d.scores for _, d in frames])
+        tracklets = clip_tracklets(
+            clip, [f for f, _ in frames], [d.boxes for _, d in frames], [d.scores for _, d in frames]
+        )
         path = out / "tracklets" / f"{clip}.npz"
         write_tracklets(path, tracklets)
         write_kitti(out / "kitti" / clip, tracklets, [f for f, _ in frames])

@@ -49,11 +49,14 @@ def autocast(device: torch.device, mode: str) -> contextlib.AbstractContextManag
 class FitResult:
     checkpoint: Path
     iterations: int  # done so far (fewer than the config's when stopped early)
-    samples_per_s: float  # training samples (frames t) per second of wall time in this run, loading included, val passes not
+    # training samples (frames t) per second of wall time in this run, loading included, val passes not
+    samples_per_s: float
     stopped: bool = False  # by `stop_at` or `stop_after_s`: `fit(..., resume=True)` continues
 
 
-def _val_point(model: Detector, config: DetectorConfig, dataset: str, device: torch.device, iteration: int) -> CurvePoint:
+def _val_point(
+    model: Detector, config: DetectorConfig, dataset: str, device: torch.device, iteration: int
+) -> CurvePoint:
     start = time.perf_counter()
     rows = average_precisions(list(predict(model, config, dataset, "val", device, progress=False)))
     model.train()

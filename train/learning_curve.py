@@ -14,10 +14,10 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402 - after choosing the backend
+import matplotlib.pyplot as plt
 
-from simgen.atomic import atomic_path  # noqa: E402
-from train.evaluate import ApRow, mean_ap  # noqa: E402
+from simgen.atomic import atomic_path
+from train.evaluate import ApRow, mean_ap
 
 CSV_NAME = "learning_curve.csv"
 PNG_NAME = "learning_curve.png"
@@ -75,7 +75,7 @@ def read_curve(out: Path, until: int) -> list[CurvePoint]:
         for row in csv.DictReader(file):
             if int(row["iteration"]) > until:
                 break
-            count = dict(truth=int(row["truth"]), detections=int(row["detections"]))
+            count = {"truth": int(row["truth"]), "detections": int(row["detections"])}
             rows = [ApRow("t", iou, n, float(row[f"{iou}_r{n}"]), **count) for n in (40, 11) for iou in ("bev", "3d")]
             points.append(CurvePoint(int(row["iteration"]), rows, float(row["eval_s"])))
     return points

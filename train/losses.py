@@ -2,7 +2,8 @@
 
 L_cls: sigmoid focal loss over positive and negative anchors; L_loc^i: smooth L1 of box i's
 residuals at positive anchors, the yaw term as sin(yaw_pred - yaw_true) (SECOND); L_dir: cross
-entropy of the direction bin at positive anchors. All are normalised by the number of positives. Nothing here reads a value back from the device:
+entropy of the direction bin at positive anchors. All are normalised by the number of positives. Nothing here reads a
+value back from the device:
 a training step runs without host synchronisation (`LossTerms.as_floats` does, every `log_every`).
 """
 
@@ -53,7 +54,9 @@ def detection_loss(output: HeadOutput, targets: BatchTargets, config: LossConfig
     positives = max(len(targets.positives), 1)  # a shape, known on the host: no device synchronisation
     scores = output.scores.reshape(-1)
     cared = (labels >= 0).to(scores.dtype)  # weights, not a boolean index (which would synchronise)
-    cls = (focal_loss(scores, (labels == 1).to(scores.dtype), config.focal_alpha, config.focal_gamma) * cared).sum() / positives
+    cls = (
+        focal_loss(scores, (labels == 1).to(scores.dtype), config.focal_alpha, config.focal_gamma) * cared
+    ).sum() / positives
 
     boxes = output.deltas.shape[2]
     pred = output.deltas.reshape(-1, boxes, 7)[targets.positives]

@@ -23,13 +23,18 @@ def _greedy(order: NDArray[np.int64], suppresses: NDArray[np.bool_], keep_max: i
     return np.asarray(kept, np.int64)
 
 
-def nms_bev(boxes: NDArray[np.float32], scores: NDArray[np.float32], iou_threshold: float, keep_max: int) -> NDArray[np.int64]:
-    """Indices of kept boxes (N, 7), best score first: a box goes when it overlaps a kept one by more than the threshold."""
+def nms_bev(
+    boxes: NDArray[np.float32], scores: NDArray[np.float32], iou_threshold: float, keep_max: int
+) -> NDArray[np.int64]:
+    """Indices of kept boxes (N, 7), best score first: a box goes when it overlaps a kept one by more than the
+    threshold."""
     order = np.argsort(-scores, kind="stable")
     return _greedy(order, bev_iou(boxes[order], boxes[order]) > iou_threshold, keep_max)
 
 
-def nms_centre(boxes: NDArray[np.float32], scores: NDArray[np.float32], distance_m: float, keep_max: int) -> NDArray[np.int64]:
+def nms_centre(
+    boxes: NDArray[np.float32], scores: NDArray[np.float32], distance_m: float, keep_max: int
+) -> NDArray[np.int64]:
     """Indices of kept boxes (N, 7), best score first: a box goes when its BEV centre is closer than
     distance_m to a kept one's."""
     order = np.argsort(-scores, kind="stable")

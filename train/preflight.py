@@ -75,7 +75,7 @@ def parameter_counts(config: DetectorConfig) -> dict[str, int]:
     pfn = model.pillar_encoder.channels
     backbone, inputs = 0, pfn
     b = model.backbone_2d
-    for layers, stride, channels, up, up_channels in zip(b.layers, b.strides, b.channels, b.upsample_strides, b.upsample_channels):
+    for layers, channels, up, up_channels in zip(b.layers, b.channels, b.upsample_strides, b.upsample_channels):
         backbone += 9 * inputs * channels + (layers - 1) * 9 * channels * channels + 4 * channels * layers
         backbone += channels * up_channels * up * up + 4 * up_channels
         inputs = channels
@@ -173,16 +173,22 @@ def check_memory(config: DetectorConfig, points_per_frame: int, device: torch.de
         some = f"{least} sample{'s' * (least > 1)}"
         needs = f"need{'s' * (least == 1)} {_gib(samples)} for {what}, {room}"
         if 2 * estimate.points > estimate.per_sample:
-            raise UserError(f"'model.pillar_encoder.channels': {some} of up to {points_per_frame:,} points a frame (the sensors' "
-                            f"shots) with {config.model.pillar_encoder.channels:,} channels a point {needs}")
+            raise UserError(
+                f"'model.pillar_encoder.channels': {some} of up to {points_per_frame:,} points a frame (the sensors' "
+                f"shots) with {config.model.pillar_encoder.channels:,} channels a point {needs}"
+            )
         rows, cols = config.data.grid_size
         widest = max(config.model.pillar_encoder.channels, *config.model.backbone_2d.channels)
-        raise UserError(f"'data.pillar_size_m': {some} of the {rows:,} x {cols:,} pillar grid with maps of up to {widest:,} "
-                        f"channels ('model.*.channels') {needs}")
+        raise UserError(
+            f"'data.pillar_size_m': {some} of the {rows:,} x {cols:,} pillar grid with maps of up to {widest:,} "
+            f"channels ('model.*.channels') {needs}"
+        )
     if samples + estimate.nms > budget:
         fits = math.isqrt((budget - samples) // NMS_BYTES_PER_PAIR)
-        raise UserError(f"'infer.pre_nms': NMS of {config.infer.pre_nms:,} boxes may need {_gib(estimate.nms)} more, {room}; "
-                        f"at most {fits:,} boxes here")
+        raise UserError(
+            f"'infer.pre_nms': NMS of {config.infer.pre_nms:,} boxes may need {_gib(estimate.nms)} more, {room}; "
+            f"at most {fits:,} boxes here"
+        )
     fits = (budget - estimate.fixed - estimate.nms) // estimate.per_sample
     raise UserError(f"'train.batch_size': {batch:,} samples need {_gib(estimate.total(batch))} for {what}, {room}; "
                     f"at most {fits:,} a batch here")

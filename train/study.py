@@ -162,11 +162,15 @@ def prepare_dataset(scenario_path: Path, scenario: Scenario, datasets: Path, pro
         done = subprocess.run(command, stdout=quiet, stderr=quiet, text=True)
         if done.returncode:
             said = (done.stderr or "").strip().splitlines()[-1:]
-            raise UserError(f"simgen {' '.join(command[4:])}: exit {done.returncode}" + (f" ({said[0]})" if said else ""))
+            raise UserError(
+                f"simgen {' '.join(command[4:])}: exit {done.returncode}" + (f" ({said[0]})" if said else "")
+            )
     dataset = simgen.datasets.open(root)
     found = parse_scenario(dataset.manifest.scenario, f"{root}/manifest.json").model_dump(mode="json")
     if found != scenario.model_dump(mode="json"):
-        raise UserError(f"{root}: holds a dataset of another scenario named {scenario.name!r}; move it or pass --datasets")
+        raise UserError(
+            f"{root}: holds a dataset of another scenario named {scenario.name!r}; move it or pass --datasets"
+        )
     val = tuple(c for c in dataset.clips if dataset.split(c) == "val")
     if not val:
         raise UserError(f"{root}: no clips in the 'val' split (a dataset needs 2 clips or more)")
@@ -183,7 +187,9 @@ def model_config(options: StudyOptions, model: str) -> DetectorConfig:
     """`<configs>/<model>.yaml` with the study's iterations, workers and seed, validated again."""
     path = options.configs / f"{model}.yaml"
     data = load_config(path).model_dump(mode="json")
-    data["train"].update({k: v for k, v in (("iterations", options.iterations), ("workers", options.workers)) if v is not None})
+    data["train"].update(
+        {k: v for k, v in (("iterations", options.iterations), ("workers", options.workers)) if v is not None}
+    )
     if options.seed is not None:
         data["seed"] = options.seed
     if options.split is not None:
@@ -208,7 +214,9 @@ def _same_data(trained_on: dict, dataset: StudyDataset) -> bool:
     return trained_on.get("dataset") == str(dataset.path.resolve()) and scenario == dataset.scenario
 
 
-def trained_model(options: StudyOptions, model: str, dataset: StudyDataset) -> tuple[Detector, DetectorConfig, bool, float]:
+def trained_model(
+    options: StudyOptions, model: str, dataset: StudyDataset
+) -> tuple[Detector, DetectorConfig, bool, float]:
     """(detector, config, reused, fit seconds): the checkpoint in OUT/<model>/ if it matches, else train.fit."""
     config, run = model_config(options, model), options.out / model
     path, marker = run / CHECKPOINT_NAME, run / TRAINED_ON
@@ -344,7 +352,11 @@ def run_study(options: StudyOptions, scenario: Scenario) -> StudyResult:
         rows, decomposition, detections = detect_val(detector, config, dataset, options)
         detectors.append(DetectorResult(model, config, reused, fit_s, time.perf_counter() - began, rows, decomposition))
         if model == TRACKED_MODEL:
-            on_train = clip_set(detect_split(detector, config, dataset, "train", options)) if config.data.split == "clip" else None
+            on_train = (
+                clip_set(detect_split(detector, config, dataset, "train", options))
+                if config.data.split == "clip"
+                else None
+            )
             tracked = (detections, on_train)
             (options.out / model / "tracklets").mkdir(parents=True, exist_ok=True)
             for clip, clip_rows in detections.tracklets.items():

@@ -40,7 +40,8 @@ def header(result: StudyResult, command: str) -> list[str]:
     return [
         f"Command: `{command}`",
         "",
-        f"- Dataset: `{d.path}`, scenario `{scenario.name}` (seed {scenario.seed}, density x{scenario.scan.density:g}), {made}; "
+        f"- Dataset: `{d.path}`, scenario `{scenario.name}` (seed {scenario.seed}, density "
+        f"x{scenario.scan.density:g}), {made}; "
         f"{_val_text(d, first.data.split)}, scored from each clip's third frame on.",
         f"- Budget: {budget}; loader processes: {first.train.workers}; device {result.device}.",
         f"- Seed: {first.seed} (training draws and augmentation). Split: {_split_text(first.data.split)}.",
@@ -72,7 +73,11 @@ def _ap(rows, kind: str, points: int = 40, truth_set: str = "all", threshold: fl
 
 def table1_markdown(result: StudyResult, command: str) -> str:
     density = result.dataset.scenario.scan.density
-    lines = [f"# Table 1 on `{result.dataset.scenario.name}`: detection of the boxes at t", "", *header(result, command)]
+    lines = [
+        f"# Table 1 on `{result.dataset.scenario.name}`: detection of the boxes at t",
+        "",
+        *header(result, command),
+    ]
     lines += [
         "AP in percent on the val clips by KITTI's official rule (train.metrics.detection), IoU 0.5, 40 recall "
         "points (11 in the R11 columns), on two sets of labelled boxes: *all* of them (as the paper) and the "
@@ -89,9 +94,12 @@ def table1_markdown(result: StudyResult, command: str) -> str:
         seen = next((row.truth for row in r.rows if row.box == "t" and row.truth_set == "visible"), None)
         cells = [_ap(r.rows, kind, points, truth_set) for truth_set in ("all", "visible") for points in (40, 11)
                  for kind in ("bev", "3d")]
-        lines.append(f"| {LABELS[r.model]} (x{density:g}) | " + " | ".join(cells)
-                     + f" | {_number(paper[0])} | {_number(paper[1])} | {t.truth} ({seen if seen is not None else '–'}) "
-                     f"| {t.detections} |")
+        lines.append(
+            f"| {LABELS[r.model]} (x{density:g}) | "
+            + " | ".join(cells)
+            + f" | {_number(paper[0])} | {_number(paper[1])} | {t.truth} ({seen if seen is not None else '–'}) "
+            f"| {t.detections} |"
+        )
     lines += [
         "", "## Centre-distance AP (beyond the paper)", "",
         "A detection matches a labelled box whose centre is within d metres on the pitch plane (no size or heading), "
@@ -102,7 +110,9 @@ def table1_markdown(result: StudyResult, command: str) -> str:
         "| --- |" + " ---: |" * (2 * len(CENTRE_THRESHOLDS_M)),
     ]
     for r in result.detectors:
-        cells = [_ap(r.rows, "centre", 40, truth_set, d) for truth_set in ("all", "visible") for d in CENTRE_THRESHOLDS_M]
+        cells = [
+            _ap(r.rows, "centre", 40, truth_set, d) for truth_set in ("all", "visible") for d in CENTRE_THRESHOLDS_M
+        ]
         lines.append(f"| {LABELS[r.model]} (x{density:g}) | " + " | ".join(cells) + " |")
     lines += [
         "", "## Where the 3D AP goes (TIDE's idea for 3D boxes)", "",
@@ -124,7 +134,8 @@ def table1_markdown(result: StudyResult, command: str) -> str:
     late = next((r for r in result.detectors if r.model == "late"), None)
     if late is not None:
         past = "; ".join(
-            f"{box}: BEV {mean_ap(late.rows, 'bev', box=box):.2f}, 3D {mean_ap(late.rows, '3d', box=box):.2f}" for box in ("t-1", "t-2")
+            f"{box}: BEV {mean_ap(late.rows, 'bev', box=box):.2f}, 3D {mean_ap(late.rows, '3d', box=box):.2f}"
+            for box in ("t-1", "t-2")
         )
         lines += ["", f"Late fusion's earlier tracklet boxes (AP R40, all boxes): {past}."]
     return "\n".join(lines) + "\n"
@@ -146,14 +157,27 @@ def _tracker_values(r: TrackerResult) -> tuple:
 
 def table2_markdown(result: StudyResult, command: str) -> str:
     filters = result.filters
-    lines = [f"# Table 2 on `{result.dataset.scenario.name}`: tracking the late model's tracklets", "", *header(result, command)]
+    lines = [
+        f"# Table 2 on `{result.dataset.scenario.name}`: tracking the late model's tracklets",
+        "",
+        *header(result, command),
+    ]
     if not filters:
-        return "\n".join(lines + ["Not run: with the frame split the val windows are scattered over the clips, so there is "
-                                  "no contiguous val sequence to track (Table 2 needs the clip split)."]) + "\n"
+        return (
+            "\n".join(
+                lines
+                + [
+                    "Not run: with the frame split the val windows are scattered over the clips, so there is "
+                    "no contiguous val sequence to track (Table 2 needs the clip split)."
+                ]
+            )
+            + "\n"
+        )
     first = next(iter(filters.values()))
     lines += [
         "AB3DMOT's metrics (train.metrics.tracking) on the val clips against the labelled boxes and track ids; "
-        "sAMOTA, AMOTA, AMOTP, MOTA, MOTP in percent; MOTA, MOTP, IDS and FRAG at the score threshold of the best MOTA. "
+        "sAMOTA, AMOTA, AMOTP, MOTA, MOTP in percent; MOTA, MOTP, IDS and FRAG at the score threshold of the best "
+        "MOTA. "
         "HOTA: TrackEval's, on 3D IoU; centre HOTA: the same on the pitch plane with SoccerNet GS-HOTA's 5 m Gaussian "
         "tolerance on centre distance (beyond the paper). AB3DMOT tracks the boxes at t; the 3D DIoU tracker the whole "
         "tracklets. Every tracker is defined by its file in train/configs/tracking/.",
@@ -195,12 +219,46 @@ def _csv(rows: list[list[object]]) -> str:
 
 
 def table1_csv(result: StudyResult) -> str:
-    rows: list[list[object]] = [["model", "truth_set", "box", "iou", "threshold", "recall_points", "ap", "truth", "detections",
-                                 "iterations", "batch_size", "seed", "checkpoint_reused", "fit_s", "eval_s"]]
+    rows: list[list[object]] = [
+        [
+            "model",
+            "truth_set",
+            "box",
+            "iou",
+            "threshold",
+            "recall_points",
+            "ap",
+            "truth",
+            "detections",
+            "iterations",
+            "batch_size",
+            "seed",
+            "checkpoint_reused",
+            "fit_s",
+            "eval_s",
+        ]
+    ]
     for r in result.detectors:
-        rows += [[r.model, a.truth_set, a.box, a.iou, a.threshold, a.recall_points, f"{a.ap:.2f}", a.truth, a.detections,
-                  r.config.train.iterations, r.config.train.batch_size, r.config.seed, r.reused, f"{r.fit_s:.1f}",
-                  f"{r.eval_s:.1f}"] for a in r.rows]
+        rows += [
+            [
+                r.model,
+                a.truth_set,
+                a.box,
+                a.iou,
+                a.threshold,
+                a.recall_points,
+                f"{a.ap:.2f}",
+                a.truth,
+                a.detections,
+                r.config.train.iterations,
+                r.config.train.batch_size,
+                r.config.seed,
+                r.reused,
+                f"{r.fit_s:.1f}",
+                f"{r.eval_s:.1f}",
+            ]
+            for a in r.rows
+        ]
     return _csv(rows)
 
 

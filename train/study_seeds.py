@@ -32,7 +32,8 @@ def _ordering(name_a: str, a: Sequence[float], name_b: str, b: Sequence[float]) 
     holds = sum(x > y for x, y in zip(a, b))
     beyond = min(a) > max(b)
     verdict = "**beyond the spread**" if beyond else ("within the spread" if holds else "**reversed in every seed**")
-    return f"- {name_a} > {name_b}: holds in {holds} of {len(a)} seeds, {verdict} (means {statistics.mean(a):.2f} and {statistics.mean(b):.2f})."
+    means = f"{statistics.mean(a):.2f} and {statistics.mean(b):.2f}"
+    return f"- {name_a} > {name_b}: holds in {holds} of {len(a)} seeds, {verdict} (means {means})."
 
 
 def table1_seeds(results: Sequence[StudyResult], seeds: Sequence[int], command: str) -> str:
@@ -48,9 +49,13 @@ def table1_seeds(results: Sequence[StudyResult], seeds: Sequence[int], command: 
              "| Method | 3D | BEV | 3D per seed | BEV per seed | paper 3D |", "| --- |" + " ---: |" * 5]
     for m in models:
         paper = PAPER_TABLE1.get((m, density), (None, None))[1]
-        lines.append(f"| {LABELS[m]} (x{density:g}) | {_spread(ap[(m, '3d')])} | {_spread(ap[(m, 'bev')])} | "
-                     + " / ".join(f"{v:.2f}" for v in ap[(m, "3d")]) + " | " + " / ".join(f"{v:.2f}" for v in ap[(m, "bev")])
-                     + f" | {'–' if paper is None else f'{paper:.2f}'} |")
+        lines.append(
+            f"| {LABELS[m]} (x{density:g}) | {_spread(ap[(m, '3d')])} | {_spread(ap[(m, 'bev')])} | "
+            + " / ".join(f"{v:.2f}" for v in ap[(m, "3d")])
+            + " | "
+            + " / ".join(f"{v:.2f}" for v in ap[(m, "bev")])
+            + f" | {'–' if paper is None else f'{paper:.2f}'} |"
+        )
     order = [m for m in TABLE1_ORDER if m in models]
     lines += ["", "The paper's order (3D AP):", ""]
     lines += [_ordering(LABELS[a], ap[(a, "3d")], LABELS[b], ap[(b, "3d")]) for a, b in zip(order, order[1:])]
@@ -64,8 +69,14 @@ def table2_seeds(results: Sequence[StudyResult], seeds: Sequence[int], command: 
     if any(not r.filters for r in results):
         return "\n".join(lines + ["Not run: the frame split has no contiguous val sequence to track."]) + "\n"
     trackers = [t.tracker for t in results[0].trackers if t.filtered and t.min_iou == TRACKING_IOU]
-    samota = {t: [100 * next(x for x in r.trackers if x.tracker == t and x.filtered and x.min_iou == TRACKING_IOU).metrics.samota
-                  for r in results] for t in trackers}
+    samota = {
+        t: [
+            100
+            * next(x for x in r.trackers if x.tracker == t and x.filtered and x.min_iou == TRACKING_IOU).metrics.samota
+            for r in results
+        ]
+        for t in trackers
+    }
     lines += ["sAMOTA in percent, 3D IoU >= 0.25, tracklets filtered by each tracker's own rule (chosen on each "
               "seed's train clips); each seed's own tables are in `seed_<seed>/`.", "",
               "| Method | sAMOTA | per seed | paper |", "| --- | ---: | ---: | ---: |"]

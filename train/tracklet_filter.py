@@ -53,7 +53,9 @@ NMS_SETTINGS: tuple[tuple[Literal["bev_iou", "centre"], float], ...] = (
 GRID = tuple(TrackletFilter(s, kind, value) for s, (kind, value) in product(SCORE_THRESHOLDS, NMS_SETTINGS))
 
 
-def filter_tracklets(boxes: NDArray[np.float64], scores: NDArray[np.float64], rule: TrackletFilter) -> NDArray[np.int64]:
+def filter_tracklets(
+    boxes: NDArray[np.float64], scores: NDArray[np.float64], rule: TrackletFilter
+) -> NDArray[np.int64]:
     """Indices, best score first, of the tracklets (N, K, 7) with scores (N,) that `rule` keeps."""
     above = np.flatnonzero(scores >= rule.min_score)
     nms = nms_bev if rule.nms == "bev_iou" else nms_centre

@@ -6,8 +6,10 @@ import argparse
 import functools
 import textwrap
 from collections import UserString
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
+
+from simgen.errors import UserError
 
 
 class LazyText(UserString):
@@ -21,13 +23,14 @@ class LazyText(UserString):
     def data(self) -> str:  # UserString's methods read `data`
         return self._make()
 
-from simgen.errors import UserError
-
 
 def add_command(subparsers, name: str, summary: str, description: str) -> argparse.ArgumentParser:
     """A sub-command's parser: `summary` in `simgen --help`, `description` wrapped at 88 columns in its own."""
     return subparsers.add_parser(
-        name, help=summary, description=textwrap.fill(description, width=88), formatter_class=argparse.RawDescriptionHelpFormatter
+        name,
+        help=summary,
+        description=textwrap.fill(description, width=88),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
 
 
@@ -41,7 +44,9 @@ def add_scenario_arguments(parser: argparse.ArgumentParser, output_help: str, fr
 
 def add_dataset_argument(parser: argparse.ArgumentParser, **kwargs) -> None:
     """DATASET, a directory that simgen wrote (the commands that read datasets)."""
-    parser.add_argument("dataset", type=Path, metavar="DATASET", help="dataset directory (with manifest.json)", **kwargs)
+    parser.add_argument(
+        "dataset", type=Path, metavar="DATASET", help="dataset directory (with manifest.json)", **kwargs
+    )
 
 
 def frame_range(text: str, frames: int) -> range:

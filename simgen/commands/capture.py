@@ -22,7 +22,9 @@ def register(subparsers) -> None:
         "keypoints in metres, in the pitch frame (origin at the centre spot, x towards the right "
         "team's goal, y left, z up).",
     )
-    add_scenario_arguments(parser, "motion clip to write (.parquet)", "frames to capture (default: the scenario's motion.frames)")
+    add_scenario_arguments(
+        parser, "motion clip to write (.parquet)", "frames to capture (default: the scenario's motion.frames)"
+    )
     parser.set_defaults(func=run)
 
 
@@ -35,7 +37,8 @@ def run(args) -> int:
     overrides = {}
     if args.frames is not None:
         overrides["motion"] = {**scenario.motion.model_dump(), "frames": args.frames}
-        overrides["scan"] = {**scenario.scan.model_dump(), "frames": None}  # nothing is scanned: no frame count to cover
+        # nothing is scanned: no frame count to cover
+        overrides["scan"] = {**scenario.scan.model_dump(), "frames": None}
     if args.seed is not None:
         overrides["seed"] = args.seed
     if overrides:

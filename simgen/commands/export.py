@@ -28,12 +28,18 @@ def register(subparsers) -> None:
     )
     add_dataset_argument(parser)
     parser.add_argument("--format", choices=EXPORT_FORMATS, default="mcap", help="output format (default mcap)")
-    parser.add_argument("-o", "--output", type=Path, required=True, metavar="FILE", help="bag file to write, e.g. clip.mcap")
+    parser.add_argument(
+        "-o", "--output", type=Path, required=True, metavar="FILE", help="bag file to write, e.g. clip.mcap"
+    )
     parser.add_argument("--clip", help="clip id (default: the first clip)")
     parser.add_argument("--frames", default=":", metavar="A:B", help="frames A to B-1 (Python slice; default all)")
-    parser.add_argument("--ros2-layout", choices=ROS2_LAYOUTS, default="simgen",
-                        help="PointCloud2 points: simgen (pitch frame, 34 bytes, default) or livox (livox_ros_driver2's "
-                             "26 bytes, sensor frame)")
+    parser.add_argument(
+        "--ros2-layout",
+        choices=ROS2_LAYOUTS,
+        default="simgen",
+        help="PointCloud2 points: simgen (pitch frame, 34 bytes, default) or livox (livox_ros_driver2's "
+        "26 bytes, sensor frame)",
+    )
     parser.set_defaults(func=run)
 
 
@@ -61,5 +67,8 @@ def run(args) -> int:
               f"on one topic, {ALL_POINTS_TOPIC}{ids}")
     progress = tqdm(frames, unit="frame", desc=f"{clip} -> {args.output.name}", dynamic_ncols=True)
     summary = write_bag(args.output, (dataset.frame(clip, i) for i in progress), list(dataset.manifest.sensors), layout)
-    print(f"{args.output}: {summary.frames} frames of {clip}, {summary.messages} messages (ROS 2, MCAP, {layout.name} points)")
+    print(
+        f"{args.output}: {summary.frames} frames of {clip}, {summary.messages} messages (ROS 2, MCAP, {layout.name} "
+        f"points)"
+    )
     return 0

@@ -1,4 +1,5 @@
-"""`simgen generate`: a scenario -> a labelled dataset (Parquet, KITTI, KITTI tracking, OpenPCDet or a ROS 2 MCAP bag per clip)."""
+"""`simgen generate`: a scenario -> a labelled dataset (Parquet, KITTI, KITTI tracking, OpenPCDet or a ROS 2 MCAP bag
+per clip)."""
 
 from __future__ import annotations
 
@@ -23,14 +24,27 @@ def register(subparsers) -> None:
         "tasks on a Ray cluster (--executor ray); the same scenario and seed give byte-identical datasets "
         "whatever the executor, workers or shards. An interrupted run is finished with --resume.",
     )
-    add_scenario_arguments(parser, "dataset directory to create, e.g. datasets/NAME", "frames per clip (default: the scenario's scan.frames)")
+    add_scenario_arguments(
+        parser,
+        "dataset directory to create, e.g. datasets/NAME",
+        "frames per clip (default: the scenario's scan.frames)",
+    )
     parser.add_argument("--format", choices=FORMATS, help="dataset layout (default: the scenario's, else parquet)")
-    parser.add_argument("--kitti-images", action="store_true",
-                        help="kitti: also write blank placeholder training/image_2 PNGs, as OpenPCDet's KITTI info generation needs")
-    parser.add_argument("--density", type=float, help="shots per second as a multiple of the real sensor's (x1, x2, ...)")
+    parser.add_argument(
+        "--kitti-images",
+        action="store_true",
+        help="kitti: also write blank placeholder training/image_2 PNGs, as OpenPCDet's KITTI info generation needs",
+    )
+    parser.add_argument(
+        "--density", type=float, help="shots per second as a multiple of the real sensor's (x1, x2, ...)"
+    )
     parser.add_argument("--clips", type=int, help="number of clips (default: the scenario's dataset.clips)")
-    parser.add_argument("--workers", type=int, default=1, help="local worker processes, one capture or shard each at a time (default 1)")
-    parser.add_argument("--executor", choices=("local", "ray"), default="local", help="where captures and shards run (default local)")
+    parser.add_argument(
+        "--workers", type=int, default=1, help="local worker processes, one capture or shard each at a time (default 1)"
+    )
+    parser.add_argument(
+        "--executor", choices=("local", "ray"), default="local", help="where captures and shards run (default local)"
+    )
     parser.add_argument(
         "--shard-frames",
         type=int,
@@ -40,7 +54,9 @@ def register(subparsers) -> None:
         "worker, at most 3000 frames each); the dataset is the same whatever the value",
     )
     parser.add_argument("--address", help="Ray cluster address, e.g. 10.0.0.5:6379 (default: start a local Ray)")
-    parser.add_argument("--resume", action="store_true", help="finish an interrupted run, keeping the clips it completed")
+    parser.add_argument(
+        "--resume", action="store_true", help="finish an interrupted run, keeping the clips it completed"
+    )
     parser.add_argument("--overwrite", action="store_true", help="replace an existing dataset in the output directory")
     parser.set_defaults(func=run)
 
@@ -82,8 +98,14 @@ class _Bars:
         if event in ("capture", "start"):
             self._close(clip_index)
             free = min(set(range(1, len(self.bars) + 2)) - {b.pos for b in self.bars.values()})
-            desc, unit = (f"clip_{clip_index:04d} capture", "motion frame") if event == "capture" else (f"clip_{clip_index:04d}", "frame")
-            self.bars[clip_index] = tqdm(total=number, unit=unit, desc=desc, position=free, leave=False, dynamic_ncols=True)
+            desc, unit = (
+                (f"clip_{clip_index:04d} capture", "motion frame")
+                if event == "capture"
+                else (f"clip_{clip_index:04d}", "frame")
+            )
+            self.bars[clip_index] = tqdm(
+                total=number, unit=unit, desc=desc, position=free, leave=False, dynamic_ncols=True
+            )
         elif event in ("captured", "frame") and clip_index in self.bars:
             self.bars[clip_index].update(number)
         elif event == "done":
@@ -122,14 +144,23 @@ def run(args) -> int:
     bars = _Bars(scenario.dataset.clips)
     try:
         totals = generate(
-            scenario, args.output, args.workers, args.executor, args.address, args.resume, args.overwrite, bars, args.shard_frames
+            scenario,
+            args.output,
+            args.workers,
+            args.executor,
+            args.address,
+            args.resume,
+            args.overwrite,
+            bars,
+            args.shard_frames,
         )
     finally:
         bars.close()
     fmt = scenario.dataset.format
     rate = totals["frames"] / max(totals["seconds"], 1e-9)
     lines = [
-        f"dataset   {args.output} ({fmt}, scenario '{scenario.name}', seed {scenario.seed}, density x{scenario.scan.density:g})",
+        f"dataset   {args.output} ({fmt}, scenario '{scenario.name}', seed {scenario.seed}, density "
+        f"x{scenario.scan.density:g})",
         f"clips     {totals['clips']} ({totals['resumed_clips']} kept from the interrupted run)",
         f"frames    {totals['frames']:,}",
         f"points    {totals['points']:,}",

@@ -27,7 +27,10 @@ def run(args) -> int:
     from simgen.datasets.compact import pack
 
     manifest = pack(args.dataset, args.output, progress=True)
-    print(f"{args.output}: {len(manifest.files)} files of {args.dataset} packed, {_megabytes(args.dataset)} -> {_megabytes(args.output)} MB")
+    print(
+        f"{args.output}: {len(manifest.files)} files of {args.dataset} packed, {_megabytes(args.dataset)} -> "
+        f"{_megabytes(args.output)} MB"
+    )
     return 0
 
 

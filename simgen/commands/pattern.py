@@ -7,7 +7,6 @@ import sys
 import warnings
 from pathlib import Path
 
-
 from simgen import __version__
 from simgen.atomic import atomic_path
 from simgen.commands.arguments import LazyText, add_command
@@ -41,7 +40,9 @@ def register(subparsers) -> None:
     parser.epilog = LazyText(lambda: "presets:\n" + _presets_help())
     parser.add_argument("preset", metavar="PRESET", help="sensor preset (listed below)")
     parser.add_argument("--seconds", type=float, required=True, help="length of the window, s")
-    parser.add_argument("--density", type=float, default=1.0, help="shots per second factor, any positive number (default 1)")
+    parser.add_argument(
+        "--density", type=float, default=1.0, help="shots per second factor, any positive number (default 1)"
+    )
     parser.add_argument("--start", type=float, default=0.0, help="start of the window, s (default 0)")
     parser.add_argument("-o", "--output", type=Path, required=True, help="output .npz file")
     parser.set_defaults(func=run)
@@ -64,7 +65,9 @@ def run(args) -> int:
         raise UserError(str(error)) from None
     expected = sensor.shots_per_s * args.density * args.seconds
     if expected > MAX_SHOTS:
-        raise UserError(f"{expected:,.0f} shots is more than {MAX_SHOTS:,}: ask for a shorter --seconds, in pieces with --start")
+        raise UserError(
+            f"{expected:,.0f} shots is more than {MAX_SHOTS:,}: ask for a shorter --seconds, in pieces with --start"
+        )
     t0, t1 = args.start, args.start + args.seconds
     with atomic_path(args.output) as tmp:
         with warnings.catch_warnings(record=True) as caught:
@@ -79,11 +82,20 @@ def run(args) -> int:
         note = (
             f"simgen {__version__} pattern {args.preset}: window ({t0:g}, {t1:g}] s, density x{args.density:g}, "
             f"{sensor.shots_per_s * args.density:,.0f} shots/s; sensor frame x forward, y left, z up; "
-            "azimuth_deg about z from x towards y, zenith_deg 90 = boresight (Livox's layout); head = head index; line = the head's laser"
+            "azimuth_deg about z from x towards y, zenith_deg 90 = boresight (Livox's layout); head = head index; line "
+            "= the head's laser"
         )
         try:
             with open(tmp, "wb") as f:
-                np.savez(f, t_s=shots.t_s, azimuth_deg=azimuth_deg, zenith_deg=zenith_deg, head=shots.head, line=shots.line, note=note)
+                np.savez(
+                    f,
+                    t_s=shots.t_s,
+                    azimuth_deg=azimuth_deg,
+                    zenith_deg=zenith_deg,
+                    head=shots.head,
+                    line=shots.line,
+                    note=note,
+                )
         except OSError as error:
             raise UserError(f"{args.output}: cannot write ({error.strerror})") from None
     print(f"{args.output}: {len(shots):,} shots of {args.preset} in ({t0:g}, {t1:g}] s")

@@ -29,10 +29,17 @@ def register(subparsers) -> None:
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--pattern", metavar="PRESET", help="sensor preset (see `simgen pattern --help`)")
     add_dataset_argument(source, nargs="?")
-    parser.add_argument("-o", "--output", type=Path, required=True, metavar="REPORT_DIR", help="report directory (created)")
+    parser.add_argument(
+        "-o", "--output", type=Path, required=True, metavar="REPORT_DIR", help="report directory (created)"
+    )
     parser.add_argument("--tolerances", type=Path, metavar="FILE", help="edited copy of simgen/qa/tolerances.yaml")
-    parser.add_argument("--max-frames", type=int, default=DEFAULT_MAX_FRAMES,
-                        help=f"frames read for the per-humanoid and intensity plots, spread over the dataset (default {DEFAULT_MAX_FRAMES})")
+    parser.add_argument(
+        "--max-frames",
+        type=int,
+        default=DEFAULT_MAX_FRAMES,
+        help=f"frames read for the per-humanoid and intensity plots, spread over the dataset (default "
+             f"{DEFAULT_MAX_FRAMES})",
+    )
     parser.set_defaults(func=run)
 
 

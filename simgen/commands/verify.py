@@ -22,7 +22,9 @@ def register(subparsers) -> None:
         "code 0: no problem; 1: problems; 2: not a readable dataset.",
     )
     add_dataset_argument(parser)
-    parser.add_argument("--tolerances", type=Path, metavar="FILE", help="edited copy of simgen/qa/tolerances.yaml (labels section)")
+    parser.add_argument(
+        "--tolerances", type=Path, metavar="FILE", help="edited copy of simgen/qa/tolerances.yaml (labels section)"
+    )
     parser.set_defaults(func=run)
 
 

@@ -30,19 +30,33 @@ def register(subparsers) -> None:
         "view, on a game-time timeline), with or without -o.",
     )
     add_dataset_argument(parser)
-    parser.add_argument("-o", "--output", type=Path, metavar="OUT", help="output directory (created) for PNGs, MP4 and exports")
-    parser.add_argument("--rerun", type=Path, metavar="FILE.rrd",
-                        help="also (or, without -o, only) write the frames as a Rerun recording: points, boxes with track "
-                        "ids and headings, sensor frusta, on a game-time timeline; open it with `rerun FILE.rrd`")
+    parser.add_argument(
+        "-o", "--output", type=Path, metavar="OUT", help="output directory (created) for PNGs, MP4 and exports"
+    )
+    parser.add_argument(
+        "--rerun",
+        type=Path,
+        metavar="FILE.rrd",
+        help="also (or, without -o, only) write the frames as a Rerun recording: points, boxes with track "
+        "ids and headings, sensor frusta, on a game-time timeline; open it with `rerun FILE.rrd`",
+    )
     parser.add_argument("--clip", help="clip id (default: the first clip)")
-    parser.add_argument("--frames", default=":", metavar="A:B", help="frames A to B-1 (Python slice; default all), or one frame A")
-    parser.add_argument("--colour", choices=COLOURINGS, default="height", help="colour points by height or intensity (default height)")
+    parser.add_argument(
+        "--frames", default=":", metavar="A:B", help="frames A to B-1 (Python slice; default all), or one frame A"
+    )
+    parser.add_argument(
+        "--colour", choices=COLOURINGS, default="height", help="colour points by height or intensity (default height)"
+    )
     parser.add_argument("--scale", type=float, default=DEFAULT_PX_PER_M, metavar="PX_PER_M",
                         help=f"pixels per metre (default {DEFAULT_PX_PER_M:g})")
     parser.add_argument("--export-frame", type=int, action="append", default=[], metavar="I",
                         help="also write frame I's points as PCD or PLY (repeatable)")
-    parser.add_argument("--export-format", choices=EXPORT_FORMATS, default="pcd", help="format of --export-frame (default pcd)")
-    parser.add_argument("--no-images", action="store_true", help="write no PNG or MP4 (with --export-frame: only the exports)")
+    parser.add_argument(
+        "--export-format", choices=EXPORT_FORMATS, default="pcd", help="format of --export-frame (default pcd)"
+    )
+    parser.add_argument(
+        "--no-images", action="store_true", help="write no PNG or MP4 (with --export-frame: only the exports)"
+    )
     parser.set_defaults(func=run)
 
 
@@ -84,7 +98,10 @@ def run(args) -> int:
         last = f" ... frame_{frames.stop - 1:06d}.png" if len(frames) > 1 else ""
         print(f"{out / clip}/: {plural(view.frames, 'PNG')} frame_{frames.start:06d}.png{last} "
               f"({view.size_px[0]} x {view.size_px[1]} px)")
-        print(f"{view.video}: {plural(view.frames, 'frame')} at {dataset.manifest.sensors[0]['frame_rate_hz']:g} fps (H.264)")
+        print(
+            f"{view.video}: {plural(view.frames, 'frame')} at {dataset.manifest.sensors[0]['frame_rate_hz']:g} fps "
+            f"(H.264)"
+        )
     for index in exports:
         path = out / clip / f"frame_{index:06d}.{args.export_format}"
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -138,7 +138,9 @@ def label_poses(clip: MotionClip, label_times_s: NDArray) -> tuple[NDArray, NDAr
     Velocities are central differences over +-VELOCITY_DT_S within the label time's segment of the
     humanoid's motion: one-sided next to a placement, zero between two placements closer than that.
     """
-    times = np.clip(label_times_s[:, None] + np.array([-VELOCITY_DT_S, 0.0, VELOCITY_DT_S]), clip.time_s[0], clip.time_s[-1])
+    times = np.clip(
+        label_times_s[:, None] + np.array([-VELOCITY_DT_S, 0.0, VELOCITY_DT_S]), clip.time_s[0], clip.time_s[-1]
+    )
     keypoints, _ = interpolate_clip(clip, times.reshape(-1))
     keypoints = keypoints.reshape(len(times), 3, clip.num_humanoids, 12, 3)
     segment = segment_index(clip, times.reshape(-1)).reshape(len(times), 3, clip.num_humanoids)

@@ -31,14 +31,18 @@ class LabelStatistics:
 
     @classmethod
     def empty(cls) -> LabelStatistics:
-        return cls(np.zeros((3, SIZE_BINS), np.int64), np.zeros(HEADING_BINS, np.int64), np.zeros(MAX_POINTS + 1, np.int64))
+        return cls(
+            np.zeros((3, SIZE_BINS), np.int64), np.zeros(HEADING_BINS, np.int64), np.zeros(MAX_POINTS + 1, np.int64)
+        )
 
     def add(self, track_id: NDArray, boxes: NDArray, discontinuity: NDArray | None, num_points: NDArray | None) -> None:
         """One frame's boxes (H, 7) with their track ids, placement flags and point counts (None: not kept),
         after the frame before it (or first)."""
         boxes = np.asarray(boxes, np.float64).reshape(-1, 7)
         if num_points is not None:
-            self.points += np.bincount(np.minimum(np.asarray(num_points, np.int64), MAX_POINTS), minlength=MAX_POINTS + 1)
+            self.points += np.bincount(
+                np.minimum(np.asarray(num_points, np.int64), MAX_POINTS), minlength=MAX_POINTS + 1
+            )
         placed = np.zeros(len(boxes), bool) if discontinuity is None else np.asarray(discontinuity, bool)
         if self._last is not None:
             pairs = [(i, self._last[int(t)]) for i, t in enumerate(track_id) if int(t) in self._last and not placed[i]]
@@ -56,7 +60,11 @@ class LabelStatistics:
                                self.points + other.points)
 
     def to_dict(self) -> dict:
-        return {"size_change": self.size_change.tolist(), "heading_change": self.heading_change.tolist(), "points": self.points.tolist()}
+        return {
+            "size_change": self.size_change.tolist(),
+            "heading_change": self.heading_change.tolist(),
+            "points": self.points.tolist(),
+        }
 
     @classmethod
     def from_dict(cls, data: dict) -> LabelStatistics:
@@ -65,7 +73,10 @@ class LabelStatistics:
     def summary(self) -> dict[str, float | None]:
         """Medians and upper percentiles (sizes in metres, heading in degrees), boxes, the share without points;
         None where there is nothing to count."""
-        out: dict[str, float | None] = {"boxes": float(self.points.sum()), "share_without_points": _share(self.points[0], self.points.sum())}
+        out: dict[str, float | None] = {
+            "boxes": float(self.points.sum()),
+            "share_without_points": _share(self.points[0], self.points.sum()),
+        }
         out["points_median"], out["points_p90"] = (_quantile(self.points, q, 1.0, 0.0) for q in (0.5, 0.9))
         for k, name in enumerate(SIZE_NAMES):
             for q, label in ((0.5, "median"), (0.9, "p90")):
@@ -101,8 +112,14 @@ def summary_rows(summary: dict[str, float | None]) -> list[tuple[str, str, str, 
 
     rows = [(f"{name} change per frame, m", cell(f"{name}_change_median_m", 3), cell(f"{name}_change_p90_m", 3), "–")
             for name in SIZE_NAMES]
-    rows.append(("heading change per frame, degrees", cell("heading_change_median_deg", 1), cell("heading_change_p90_deg", 1),
-                 cell("heading_change_p99_deg", 1)))
+    rows.append(
+        (
+            "heading change per frame, degrees",
+            cell("heading_change_median_deg", 1),
+            cell("heading_change_p90_deg", 1),
+            cell("heading_change_p99_deg", 1),
+        )
+    )
     share = summary.get("share_without_points")
     rows.append(("points per box", cell("points_median", 0), cell("points_p90", 0), "–"))
     rows.append(("boxes without a point", "–" if share is None else f"{share:.1%}", "–", "–"))

@@ -12,7 +12,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-
 #: The engine's game modes (gfootball's e_GameMode), by the value `MotionClip.game_mode` stores.
 GAME_MODES = ("normal", "kick_off", "goal_kick", "free_kick", "corner", "throw_in", "penalty")
 

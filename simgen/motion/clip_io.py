@@ -51,15 +51,26 @@ SCHEMA = pa.schema(
             "the engine's own player position (x, y, z), metres; NaN between engine steps and for officials",
         ),
         _field("ball_m", pa.list_(pa.float32(), 3), "ball centre (x, y, z), metres"),
-        _field("placed_s", pa.float64(), "game time (s) the engine placed the humanoid (a restart) since the frame before; NaN: not placed"),
-        _field("ball_placed_s", pa.float64(), "game time (s) the engine placed the ball since the frame before; NaN: not placed"),
-        _field("game_mode", pa.int8(), "the engine's game mode: " + ", ".join(f"{i} {m}" for i, m in enumerate(GAME_MODES))),
+        _field(
+            "placed_s",
+            pa.float64(),
+            "game time (s) the engine placed the humanoid (a restart) since the frame before; NaN: not placed",
+        ),
+        _field(
+            "ball_placed_s",
+            pa.float64(),
+            "game time (s) the engine placed the ball since the frame before; NaN: not placed",
+        ),
+        _field(
+            "game_mode", pa.int8(), "the engine's game mode: " + ", ".join(f"{i} {m}" for i, m in enumerate(GAME_MODES))
+        ),
     ]
 )
 
 
 PER_ROW_COLUMNS = {"time_s": np.float64, "placed_s": np.float64, "ball_placed_s": np.float64, "game_mode": np.int8}
-PER_ROW_LISTS = {"keypoints_m": NUM_KEYPOINTS * 3, "engine_position_m": 3, "ball_m": 3}  # fixed-size list columns, widths
+# fixed-size list columns, widths
+PER_ROW_LISTS = {"keypoints_m": NUM_KEYPOINTS * 3, "engine_position_m": 3, "ball_m": 3}
 
 
 def _fixed_list(values: np.ndarray, width: int) -> pa.FixedSizeListArray:
@@ -158,10 +169,17 @@ def read_clip(path: str | Path) -> MotionClip:
     except (OSError, pa.ArrowException) as error:
         raise UserError(f"{path}: not a readable Parquet motion clip ({error})") from None
     except (KeyError, ValueError) as error:  # a column missing or of another width
-        raise UserError(f"{path}: not a simgen motion clip ({type(error).__name__}: {str(error).splitlines()[0] if str(error) else error!r})") from None
+        raise UserError(
+            f"{path}: not a simgen motion clip "
+            f"({type(error).__name__}: {str(error).splitlines()[0] if str(error) else error!r})"
+        ) from None
     frames = int(frame.max()) + 1
     humanoids = rows // max(frames, 1)
-    if humanoids == 0 or frames * humanoids != rows or not np.array_equal(frame, np.repeat(np.arange(frames), humanoids)):
+    if (
+        humanoids == 0
+        or frames * humanoids != rows
+        or not np.array_equal(frame, np.repeat(np.arange(frames), humanoids))
+    ):
         raise UserError(f"{path}: rows are not whole frames of the same humanoids")
     roster = first.slice(0, humanoids)  # whole frames of the same humanoids: frame 0's rows hold the roster
     capture_hz = metadata.pop("capture_hz")
@@ -184,7 +202,8 @@ def read_clip(path: str | Path) -> MotionClip:
     )
 
 
-FRAME_ARRAYS = ("time_s", "keypoints_m", "ball_m", "engine_position_m", "placed_s", "ball_placed_s", "game_mode")  # MotionClip fields with a frame axis
+# MotionClip fields with a frame axis
+FRAME_ARRAYS = ("time_s", "keypoints_m", "ball_m", "engine_position_m", "placed_s", "ball_placed_s", "game_mode")
 ROSTER = ("track_id", "team", "role", "jersey")  # MotionClip fields with a humanoid axis only
 
 
@@ -211,11 +230,16 @@ def read_clip_arrays(directory: str | Path) -> MotionClip:
         info = json.loads((directory / "clip.json").read_text())
         arrays = {name: np.load(directory / f"{name}.npy", mmap_mode="r", allow_pickle=False) for name in FRAME_ARRAYS}
     except (OSError, ValueError) as error:  # missing, truncated or foreign files (JSONDecodeError is a ValueError)
-        raise UserError(f"{directory}: not a readable motion capture ({type(error).__name__}: {(str(error).splitlines() or [''])[0]})") from None
+        raise UserError(
+            f"{directory}: not a readable motion capture "
+            f"({type(error).__name__}: {(str(error).splitlines() or [''])[0]})"
+        ) from None
     if not isinstance(info, dict) or not {"capture_hz", "metadata"} <= info.keys():
         raise UserError(f"{directory}: a motion capture without its clip.json fields")
     humanoids = arrays["keypoints_m"].shape[1] if arrays["keypoints_m"].ndim == 4 else -1
-    if len({len(array) for array in arrays.values()}) != 1 or any(len(info.get(name, ())) != humanoids for name in ROSTER):
+    if len({len(array) for array in arrays.values()}) != 1 or any(
+        len(info.get(name, ())) != humanoids for name in ROSTER
+    ):
         raise UserError(f"{directory}: a motion capture whose arrays disagree on frames or humanoids")
     return MotionClip(
         **arrays,

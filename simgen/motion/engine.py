@@ -18,7 +18,7 @@ import contextlib
 import importlib.util
 import os
 import pkgutil
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -41,7 +41,7 @@ def _import_engine():
     os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
     try:
         with open(os.devnull, "w") as devnull, contextlib.redirect_stdout(devnull), contextlib.redirect_stderr(devnull):
-            import gfootball_engine  # noqa: F401
+            import gfootball_engine  # noqa: F401 - the compiled engine: a missing build fails here, by name
             from gfootball.env import config as gf_config
             from gfootball.env import football_action_set, football_env_core
     except ImportError as error:

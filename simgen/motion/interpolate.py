@@ -20,7 +20,10 @@ def _bracket(clip: MotionClip, times_s: NDArray) -> tuple[NDArray, NDArray, NDAr
     """Times (T,) as float64, and the captured frames around them: lower and upper (T,) indices."""
     times = np.asarray(times_s, dtype=np.float64)
     if len(times) and (times.min() < clip.time_s[0] - 1e-9 or times.max() > clip.time_s[-1] + 1e-9):
-        raise ValueError(f"times {times.min():.3f}-{times.max():.3f} s outside the clip's {clip.time_s[0]:.3f}-{clip.time_s[-1]:.3f} s")
+        raise ValueError(
+            f"times {times.min():.3f}-{times.max():.3f} s outside the clip's "
+            f"{clip.time_s[0]:.3f}-{clip.time_s[-1]:.3f} s"
+        )
     upper = np.clip(np.searchsorted(clip.time_s, times, side="right"), 1, clip.num_frames - 1)
     return times, upper - 1, upper
 

@@ -8,7 +8,7 @@ order, by any worker, with identical results.
 from __future__ import annotations
 
 import math
-from typing import Iterator
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -54,7 +54,9 @@ def render_clip(scenario: Scenario, clip: MotionClip, clip_index: int) -> Iterat
     return render_frames(scenario, clip, clip_index, 0, frame_count(scenario, clip))
 
 
-def render_frames(scenario: Scenario, clip: MotionClip, clip_index: int, first: int, stop: int) -> Iterator[LabelledFrame]:
+def render_frames(
+    scenario: Scenario, clip: MotionClip, clip_index: int, first: int, stop: int
+) -> Iterator[LabelledFrame]:
     """Yield frames `first` .. `stop - 1` of the clip, in order: the same frames, bit for bit, as
     `render_clip` yields there (a shard of a clip). Labels are computed `LABEL_CHUNK_FRAMES` at a
     time on chunks aligned to the clip's frame 0 whatever `first` is."""
@@ -64,7 +66,11 @@ def render_frames(scenario: Scenario, clip: MotionClip, clip_index: int, first: 
     start = float(clip.time_s[0])
     specs = scenario.sensor_specs()
     # labels.size: track: one size per humanoid over the whole clip, whatever part of it this call renders
-    sizes = track_sizes(clip, start + (np.arange(frame_count(scenario, clip)) + 0.5) / rate) if scenario.labels.size == "track" else None
+    sizes = (
+        track_sizes(clip, start + (np.arange(frame_count(scenario, clip)) + 0.5) / rate)
+        if scenario.labels.size == "track"
+        else None
+    )
     for index in range(first, stop):
         j = index % LABEL_CHUNK_FRAMES
         if j == 0 or index == first:  # labels of the chunk's frames at once (none past `stop`: no motion there)
@@ -79,5 +85,7 @@ def render_frames(scenario: Scenario, clip: MotionClip, clip_index: int, first: 
         rng = np.random.default_rng(np.random.SeedSequence([scenario.seed, clip_index, index]))
         snapshot_s = float(label_times[j]) if scenario.scan.timing == "snapshot" else None
         scan = render_frame(world, rays, frame_start, scenario.noise, rng, snapshot_s)
-        labels = frame_labels(boxes[j], keypoints[j], velocity[j], clip.track_id, clip.team, clip.role, scan.instance_id, discontinuity[j])
+        labels = frame_labels(
+            boxes[j], keypoints[j], velocity[j], clip.track_id, clip.team, clip.role, scan.instance_id, discontinuity[j]
+        )
         yield LabelledFrame(clip_name(clip_index), index, frame_start, float(label_times[j]), scan, labels)

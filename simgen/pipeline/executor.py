@@ -3,9 +3,9 @@ Ray (`ray_cluster`), and the function their workers run."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass
-from typing import Callable
 
 from simgen.pipeline.jobs import Job, Progress, run_job
 

@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from simgen.datasets.formats import dataset_format  # names only: imports no writer
 from simgen.pipeline.memory import release_memory
@@ -114,7 +114,9 @@ def run_shard(job: Job, progress: Progress) -> dict:
         target, target_format = shard_root(root, job.clip_index, first), "parquet"
         target.mkdir(parents=True, exist_ok=True)
     clip = read_clip_arrays(motion_path(root, job.clip_index))
-    with ClipWriter(target, target_format, clip_name(job.clip_index), job.clip_index, sensor_infos(scenario), first) as writer:
+    with ClipWriter(
+        target, target_format, clip_name(job.clip_index), job.clip_index, sensor_infos(scenario), first
+    ) as writer:
         for frame in render_frames(scenario, clip, job.clip_index, first, stop):
             writer.add(frame)
             progress("frame", job.clip_index, 1)
@@ -136,15 +138,25 @@ def run_assemble(job: Job, progress: Progress) -> dict:
     scenario = Scenario.model_validate(job.scenario)
     root = Path(job.root)
     plan = read_plan(root, job.clip_index)
-    shards = [ClipRecord.from_dict(json.loads(shard_marker(root, job.clip_index, first).read_text())) for first, _ in plan["shards"]]
+    shards = [
+        ClipRecord.from_dict(json.loads(shard_marker(root, job.clip_index, first).read_text()))
+        for first, _ in plan["shards"]
+    ]
     fmt, name = scenario.dataset.format, clip_name(job.clip_index)
     if writes_in_place(fmt, len(shards)):
         labels = LabelStatistics.empty()
         for shard in shards:
             labels = labels.merged(LabelStatistics.from_dict(shard.labels))
         record = ClipRecord(
-            fmt, name, job.clip_index, sum(s.frames for s in shards), sum(s.points for s in shards), sum(s.boxes for s in shards),
-            shards[0].start_s, tuple(sorted((f for s in shards for f in s.files), key=lambda f: f.path)), labels.to_dict(),
+            fmt,
+            name,
+            job.clip_index,
+            sum(s.frames for s in shards),
+            sum(s.points for s in shards),
+            sum(s.boxes for s in shards),
+            shards[0].start_s,
+            tuple(sorted((f for s in shards for f in s.files), key=lambda f: f.path)),
+            labels.to_dict(),
         )
     else:
         with ClipWriter(root, fmt, name, job.clip_index, sensor_infos(scenario)) as writer:

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
 from contextlib import contextmanager
 from multiprocessing import get_context
-from typing import Iterator
 
 from simgen.pipeline.executor import Executor, forward, run_job_reporting
 from simgen.pipeline.jobs import Job, Progress, run_job
@@ -31,4 +31,6 @@ def local_pool(workers: int, progress: Progress) -> Iterator[Executor]:
     with context.Manager() as manager:
         queue = manager.Queue()
         with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            yield Executor(workers, lambda job: pool.submit(run_job_reporting, job, queue), lambda: forward(queue, progress))
+            yield Executor(
+                workers, lambda job: pool.submit(run_job_reporting, job, queue), lambda: forward(queue, progress)
+            )

@@ -4,8 +4,8 @@ whose worker dies is retried (a retried shard rewrites its files from its first 
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Iterator
 
 from simgen.errors import UserError
 from simgen.pipeline.executor import Executor, forward, run_job_reporting

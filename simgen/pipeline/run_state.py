@@ -83,7 +83,9 @@ class OutputLock:
             self._file.seek(0)
             holder = self._file.read().strip() or "another process"
             self._file.close()
-            raise UserError(f"{root}: another simgen generate is writing here ({holder}); wait for it or use another -o") from None
+            raise UserError(
+                f"{root}: another simgen generate is writing here ({holder}); wait for it or use another -o"
+            ) from None
         self._file.seek(0)
         self._file.truncate()
         self._file.write(f"pid {os.getpid()} on {os.uname().nodename}")
@@ -117,13 +119,17 @@ def prepare_output(root: Path, scenario: Scenario, resume: bool, overwrite: bool
         if not (complete or interrupted):
             raise UserError(f"{root}: holds files but no interrupted simgen generate run to resume")
         if interrupted and state.read_text() != resolved:
-            raise UserError(f"{root}: was started with another scenario or options; resume with the same ones, or --overwrite")
+            raise UserError(
+                f"{root}: was started with another scenario or options; resume with the same ones, or --overwrite"
+            )
         for leftover in root.rglob("*.tmp-*"):  # files an interrupted writer never renamed
             leftover.unlink()
         if complete:
             return True
     elif occupied and not overwrite:
-        raise UserError(f"{root}: already exists; use --resume to finish an interrupted run or --overwrite to replace it")
+        raise UserError(
+            f"{root}: already exists; use --resume to finish an interrupted run or --overwrite to replace it"
+        )
     (root / WORK_DIR / "clips").mkdir(parents=True, exist_ok=True)
     with atomic_path(state) as tmp:
         tmp.write_text(resolved)

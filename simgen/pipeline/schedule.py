@@ -13,7 +13,9 @@ from simgen.pipeline.run_state import clean_clip, motion_path, plan_path, read_p
 class Schedule:
     """What is left to do for the clips not yet done; hands out the next jobs as results come."""
 
-    def __init__(self, root: Path, payload: dict, clip_indices: list[int], shard_frames: int, min_shards: int, progress: Progress):
+    def __init__(
+        self, root: Path, payload: dict, clip_indices: list[int], shard_frames: int, min_shards: int, progress: Progress
+    ):
         self.root, self.payload, self.progress = root, payload, progress
         self.shard_frames, self.min_shards = shard_frames, min_shards
         self.plans: dict[int, dict] = {}

@@ -10,9 +10,9 @@ import numpy as np
 
 import scan_patterns as sp
 from simgen.datasets.reader import Dataset
+from simgen.labels.statistics import summary_rows
 from simgen.qa import plots
 from simgen.qa.checks import Check
-from simgen.labels.statistics import summary_rows
 from simgen.qa.dataset import DatasetQA, dataset_qa
 from simgen.qa.integrity import Verification, verify_dataset
 from simgen.qa.pattern import HeadQA, sensor_qa
@@ -38,8 +38,10 @@ def coverage_table(heads: list[HeadQA]) -> Table:
             ref = first.coverage[cell][1][k]
             worst = max((m - ref for m in mine), key=abs) * 100
             rows.append((f"{cell:g}", f"{t:g}", *(f"{m:.2%}" for m in mine), f"{ref:.2%}", f"{worst:+.2f}"))
-    return Table(("cell, deg", "T, s", *_heads_columns(heads), f"official {heads[0].reference}", "largest difference, points"),
-                 tuple(rows))
+    return Table(
+        ("cell, deg", "T, s", *_heads_columns(heads), f"official {heads[0].reference}", "largest difference, points"),
+        tuple(rows),
+    )
 
 
 def radial_table(heads: list[HeadQA]) -> Table:
@@ -47,7 +49,9 @@ def radial_table(heads: list[HeadQA]) -> Table:
     rows = []
     for k, rho in enumerate(ref.off_axis_deg):
         mine = [h.comparison.radial[0].shots_per_sr_s[k] for h in heads]
-        worst = max((m / ref.shots_per_sr_s[k] - 1 for m in mine), key=abs) if ref.shots_per_sr_s[k] > 0 else float("nan")
+        worst = (
+            max((m / ref.shots_per_sr_s[k] - 1 for m in mine), key=abs) if ref.shots_per_sr_s[k] > 0 else float("nan")
+        )
         rows.append((f"{rho:g}", *(f"{m:,.0f}" for m in mine), f"{ref.shots_per_sr_s[k]:,.0f}", f"{worst:+.2%}"))
     return Table(("off-axis, deg", *_heads_columns(heads), f"official {heads[0].reference}", "largest difference"),
                  tuple(rows))
@@ -56,7 +60,11 @@ def radial_table(heads: list[HeadQA]) -> Table:
 def target_table(heads: list[HeadQA]) -> Table:
     first = heads[0].comparison
     rows = tuple(
-        (f"{r:g} m, {off:g} deg", *(f"{h.comparison.target_points[0][k]:.2f}" for h in heads), f"{first.target_points[1][k]:.2f}")
+        (
+            f"{r:g} m, {off:g} deg",
+            *(f"{h.comparison.target_points[0][k]:.2f}" for h in heads),
+            f"{first.target_points[1][k]:.2f}",
+        )
         for k, (r, off) in enumerate(first.targets)
     )
     return Table(("target", *_heads_columns(heads), f"official {heads[0].reference}"), rows)
@@ -68,8 +76,14 @@ def pattern_sections(name: str, heads: list[HeadQA], out_dir: Path, tol: Toleran
     slug = re.sub(r"[^A-Za-z0-9_.-]", "_", name)  # a scenario's own sensor names can hold anything
     image = {kind: f"{PLOTS}/{kind}_{slug}.png" for kind in ("pattern", "coverage", "radial", "targets")}
     plots.shot_patterns(heads, out_dir / image["pattern"])
-    sections = [Section(f"{name}: shot pattern", "One 10 Hz frame and 0.5 s of each head, in the head frame, and "
-                        "the official file's, as in the paper's Fig. 5a.", ((image["pattern"], f"{name} shot pattern"),))]
+    sections = [
+        Section(
+            f"{name}: shot pattern",
+            "One 10 Hz frame and 0.5 s of each head, in the head frame, and "
+            "the official file's, as in the paper's Fig. 5a.",
+            ((image["pattern"], f"{name} shot pattern"),),
+        )
+    ]
     by_reference: dict[str, list[HeadQA]] = {}
     for h in heads:
         if h.reference is not None:
@@ -82,13 +96,25 @@ def pattern_sections(name: str, heads: list[HeadQA], out_dir: Path, tol: Toleran
     plots.target_points(compared, out_dir / image["targets"])
     window = "Each head over (0, 4] s of its own clock (its time_offset_s ahead) against Livox's 4 s file."
     sections += [
-        Section(f"{name}: coverage against integration time", window, ((image["coverage"], f"{name} coverage"),),
-                tuple(coverage_table(group) for group in by_reference.values())),
-        Section(f"{name}: radial density", "Shots per steradian per second in 0.5 deg off-axis rings.",
-                ((image["radial"], f"{name} radial density"),), tuple(radial_table(group) for group in by_reference.values())),
-        Section(f"{name}: points on a person-sized target", "Mean points per 10 Hz frame on an upright 0.5 x 1.8 m "
-                "target facing the head, and how often a frame puts no point on it at all.",
-                ((image["targets"], f"{name} target points"),), tuple(target_table(group) for group in by_reference.values())),
+        Section(
+            f"{name}: coverage against integration time",
+            window,
+            ((image["coverage"], f"{name} coverage"),),
+            tuple(coverage_table(group) for group in by_reference.values()),
+        ),
+        Section(
+            f"{name}: radial density",
+            "Shots per steradian per second in 0.5 deg off-axis rings.",
+            ((image["radial"], f"{name} radial density"),),
+            tuple(radial_table(group) for group in by_reference.values()),
+        ),
+        Section(
+            f"{name}: points on a person-sized target",
+            "Mean points per 10 Hz frame on an upright 0.5 x 1.8 m "
+            "target facing the head, and how often a frame puts no point on it at all.",
+            ((image["targets"], f"{name} target points"),),
+            tuple(target_table(group) for group in by_reference.values()),
+        ),
     ]
     return sections
 
@@ -109,7 +135,9 @@ def _humanoid_table(qa: DatasetQA) -> Table:
         for label, mask in (("in a head's FOV", h.in_fov), ("outside every FOV", ~h.in_fov)):
             chosen = h.points[(h.range_m >= lo) & (h.range_m < hi) & mask]
             if len(chosen):
-                rows.append((f"{lo}-{hi} m", label, f"{len(chosen):,}", f"{np.median(chosen):g}", f"{(chosen == 0).mean():.1%}"))
+                rows.append(
+                    (f"{lo}-{hi} m", label, f"{len(chosen):,}", f"{np.median(chosen):g}", f"{(chosen == 0).mean():.1%}")
+                )
     return Table(("range", "box centre", "samples", "median points", "with no point"), tuple(rows))
 
 
@@ -156,21 +184,40 @@ def dataset_report(dataset: Dataset, tol: Tolerances, out_dir: Path, max_frames:
     plots.frame_statistics(qa, out_dir / PLOTS / "frames.png")
     counted = ("points counted by their track id, per sensor" if dataset.plugin.carries.point_fields else
                f"points counted inside the box grown by {tol.labels.box_margin_m:g} m, credited to the nearest sensor")
-    sensors = "; ".join(f"{s.name} ({s.preset}) at ({s.origin_m[0]:g}, {s.origin_m[1]:g}, {s.origin_m[2]:g}) m" for s in qa.sensors)
+    sensors = "; ".join(
+        f"{s.name} ({s.preset}) at ({s.origin_m[0]:g}, {s.origin_m[1]:g}, {s.origin_m[2]:g}) m" for s in qa.sensors
+    )
     sections += [
-        Section("Points per humanoid against range and off-axis angle",
-                f"From the boxes of {qa.frames_sampled} of {qa.frames_total} frames; {counted}. Sensors: {sensors}. A "
-                "humanoid far off a head's axis, or outside every field of view, can get no point at all in a frame.",
-                ((f"{PLOTS}/humanoids.png", "points per humanoid"),), (_humanoid_table(qa),)),
-        Section("Frames: points, dropout, misses, intensity", "", ((f"{PLOTS}/frames.png", "frame statistics"),),
-                (_frames_table(qa),)),
-        Section("Labels: how boxes change from frame to frame, and their points",
-                "Every clip's boxes as the dataset was written (manifest.json `labels`; pairs of consecutive frames of a "
-                "track, none across a placement).", (),
-                (Table(("quantity", "median", "90th percentile", "99th percentile"), tuple(summary_rows(manifest.labels))),)),
+        Section(
+            "Points per humanoid against range and off-axis angle",
+            f"From the boxes of {qa.frames_sampled} of {qa.frames_total} frames; {counted}. Sensors: {sensors}. A "
+            "humanoid far off a head's axis, or outside every field of view, can get no point at all in a frame.",
+            ((f"{PLOTS}/humanoids.png", "points per humanoid"),),
+            (_humanoid_table(qa),),
+        ),
+        Section(
+            "Frames: points, dropout, misses, intensity",
+            "",
+            ((f"{PLOTS}/frames.png", "frame statistics"),),
+            (_frames_table(qa),),
+        ),
+        Section(
+            "Labels: how boxes change from frame to frame, and their points",
+            "Every clip's boxes as the dataset was written (manifest.json `labels`; pairs of consecutive frames of a "
+            "track, none across a placement).",
+            (),
+            (
+                Table(
+                    ("quantity", "median", "90th percentile", "99th percentile"), tuple(summary_rows(manifest.labels))
+                ),
+            ),
+        ),
         _integrity_section(verification, dataset.root),
     ]
     scenario = manifest.scenario.get("name", "?")
-    subject = (f"{dataset.root.resolve().name}: {manifest.format}, scenario '{scenario}', seed {manifest.seed}, {len(manifest.clips)} clips, "
-               f"{len(dataset)} frames; tolerances from {tol.source}.")
+    subject = (
+        f"{dataset.root.resolve().name}: {manifest.format}, scenario '{scenario}', seed {manifest.seed}, "
+        f"{len(manifest.clips)} clips, "
+        f"{len(dataset)} frames; tolerances from {tol.source}."
+    )
     return Report(f"Dataset QA: {dataset.root.resolve().name}", subject, tuple(checks), tuple(sections))

@@ -41,7 +41,9 @@ def schema_problem(root: Path) -> Problem | None:
     except (UserError, ValueError, RecursionError):  # left to `read_manifest` to say
         return None
     if isinstance(data, dict) and data.get("schema_version") != SCHEMA_VERSION:
-        return Problem(str(path), None, f"schema version {data.get('schema_version')}, this simgen reads {SCHEMA_VERSION}")
+        return Problem(
+            str(path), None, f"schema version {data.get('schema_version')}, this simgen reads {SCHEMA_VERSION}"
+        )
     return None
 
 
@@ -62,7 +64,9 @@ def file_problems(dataset: Dataset) -> list[Problem]:
     listed = set(dataset.files.records) | {MANIFEST_NAME, CARD_NAME}
     for path in sorted(p for p in root.rglob("*") if p.is_file()):
         if path.relative_to(root).as_posix() not in listed:
-            problems.append(Problem(str(path), None, "not listed in manifest.json (readers that glob the folders would read it)"))
+            problems.append(
+                Problem(str(path), None, "not listed in manifest.json (readers that glob the folders would read it)")
+            )
     return problems
 
 
@@ -90,7 +94,9 @@ def clip_problems(dataset: Dataset, entry: ClipEntry, tol: LabelTolerances) -> t
     manifest = str(dataset.root / MANIFEST_NAME)
     points = sum(p for p, _ in sizes)
     if points != entry.points:
-        problems.append(Problem(manifest, None, f"clip {entry.clip} lists {entry.points} points, its frames hold {points}"))
+        problems.append(
+            Problem(manifest, None, f"clip {entry.clip} lists {entry.points} points, its frames hold {points}")
+        )
     if rows != entry.boxes:
         problems.append(Problem(manifest, None, f"clip {entry.clip} lists {entry.boxes} boxes, its labels hold {rows}"))
     return problems, rows

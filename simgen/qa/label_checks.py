@@ -40,9 +40,17 @@ def box_problems(frame: Frame, locate: Locate, tol: LabelTolerances) -> list[Pro
             continue
         for name, value in zip(SIZE_NAMES, size):
             if not tol.min_box_size_m <= value <= tol.max_box_size_m:
-                problems.append(Problem(file, row, f"box {name} {value:.3f} m outside {tol.min_box_size_m:g}-{tol.max_box_size_m:g} m"))
+                problems.append(
+                    Problem(
+                        file, row, f"box {name} {value:.3f} m outside {tol.min_box_size_m:g}-{tol.max_box_size_m:g} m"
+                    )
+                )
         if abs(x) > HALF_LENGTH_M + tol.pitch_margin_m or abs(y) > HALF_WIDTH_M + tol.pitch_margin_m:
-            problems.append(Problem(file, row, f"box centre ({x:.2f}, {y:.2f}) m is off the pitch grown by {tol.pitch_margin_m:g} m"))
+            problems.append(
+                Problem(
+                    file, row, f"box centre ({x:.2f}, {y:.2f}) m is off the pitch grown by {tol.pitch_margin_m:g} m"
+                )
+            )
         if z - size[2] / 2 < -GROUND_SLACK_M:
             problems.append(Problem(file, row, f"box bottom at z = {z - size[2] / 2:.3f} m, under the ground"))
         if not -np.pi - 1e-6 <= yaw <= np.pi + 1e-6:
@@ -74,7 +82,12 @@ def _box_of(frame: Frame | None, track: int) -> tuple[NDArray, float] | None:
 
 
 def count_problems(
-    frame: Frame, locate: Locate, half_frame_s: float, tol: LabelTolerances, before: Frame | None = None, after: Frame | None = None
+    frame: Frame,
+    locate: Locate,
+    half_frame_s: float,
+    tol: LabelTolerances,
+    before: Frame | None = None,
+    after: Frame | None = None,
 ) -> list[Problem]:
     """Stored `num_points` against the points carrying the box's track id, and those inside the box (or
     in the box of frame `before` or `after` on the point's side of the label time)."""
@@ -83,11 +96,17 @@ def count_problems(
     placed = frame.discontinuity if frame.discontinuity is not None else np.zeros(len(frame.boxes), bool)
     timed = frame.time_offset_s is not None and frame.time_s is not None and frame.label_time_s is not None
     problems = []
-    for i, (box, track, stored) in enumerate(zip(np.asarray(frame.boxes, np.float64), frame.track_id, frame.num_points)):
+    for i, (box, track, stored) in enumerate(
+        zip(np.asarray(frame.boxes, np.float64), frame.track_id, frame.num_points)
+    ):
         file, row = locate(frame.index, i)
         lo, hi = np.searchsorted(ids, track, "left"), np.searchsorted(ids, track, "right")
         if hi - lo != stored:
-            problems.append(Problem(file, row, f"num_points is {stored}, the frame has {plural(hi - lo, 'point')} of track id {track}"))
+            problems.append(
+                Problem(
+                    file, row, f"num_points is {stored}, the frame has {plural(hi - lo, 'point')} of track id {track}"
+                )
+            )
             continue
         if placed[i]:
             continue
@@ -101,12 +120,22 @@ def count_problems(
                 if other is not None:
                     inside |= side & in_box(points, other[0], tol.box_margin_m + other[1] * half_frame_s)
         if int(inside.sum()) != stored:
-            problems.append(Problem(file, row, f"{plural(int(inside.sum()), 'point')} inside the box (grown by {grow:.2f} m), num_points is {stored}"))
+            problems.append(
+                Problem(
+                    file,
+                    row,
+                    f"{plural(int(inside.sum()), 'point')} inside the box (grown by {grow:.2f} m), num_points is "
+                    f"{stored}",
+                )
+            )
     return problems
 
 
 def track_problems(
-    tracks: Sequence[tuple[int, NDArray, NDArray, NDArray | None]], locate: Locate, frame_rate_hz: float, tol: LabelTolerances
+    tracks: Sequence[tuple[int, NDArray, NDArray, NDArray | None]],
+    locate: Locate,
+    frame_rate_hz: float,
+    tol: LabelTolerances,
 ) -> list[Problem]:
     """Track ids twice in a frame, missing from frames between two sightings, or moving too fast within
     a segment.
@@ -125,10 +154,19 @@ def track_problems(
             centre = np.asarray(boxes[i, :2], np.float64)
             seen = last.get(int(track))
             if seen is not None and seen[0] < index - 1:
-                problems.append(Problem(file, row, f"track id {track} is missing from frames {seen[0] + 1}-{index - 1}"))
+                problems.append(
+                    Problem(file, row, f"track id {track} is missing from frames {seen[0] + 1}-{index - 1}")
+                )
             elif seen is not None and seen[0] == index - 1 and not (placed is not None and placed[i]):
                 speed = float(np.linalg.norm(centre - seen[1])) * frame_rate_hz
                 if speed > tol.max_speed_mps:
-                    problems.append(Problem(file, row, f"track id {track} moved at {speed:.1f} m/s since frame {seen[0]} (limit {tol.max_speed_mps:g})"))
+                    problems.append(
+                        Problem(
+                            file,
+                            row,
+                            f"track id {track} moved at {speed:.1f} m/s since frame {seen[0]} (limit "
+                            f"{tol.max_speed_mps:g})",
+                        )
+                    )
             last[int(track)] = (index, centre)
     return problems

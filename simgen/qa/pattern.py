@@ -22,7 +22,7 @@ WINDOW_S = 4.0  # the official files' length
 FRAME_S = 0.1  # one 10 Hz frame
 ACCUMULATED_S = 0.5
 TARGET_RANGES_M = tuple(float(r) for r in range(10, 131, 10))  # on the boresight
-TARGET_OFF_AXIS_DEG = tuple(float(a) for a in range(0, 20))  # at TARGET_AT_M
+TARGET_OFF_AXIS_DEG = tuple(float(a) for a in range(20))  # at TARGET_AT_M
 TARGET_AT_M = 50.0
 
 
@@ -64,7 +64,9 @@ def _worst(mine: NDArray, reference: NDArray, relative: bool) -> tuple[int, floa
     return i, float(diff[i])
 
 
-def pattern_checks(subject: str, head: sp.HeadSpec, reference: str, c: sp.PatternComparison, tol: PatternTolerances) -> list[Check]:
+def pattern_checks(
+    subject: str, head: sp.HeadSpec, reference: str, c: sp.PatternComparison, tol: PatternTolerances
+) -> list[Check]:
     """Shot rate, coverage per cell size, radial density and target points against the tolerances.
 
     `measured` gives the largest difference, signed (head minus official), where it is, and both values.

@@ -10,13 +10,13 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402 - after choosing the backend
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from scan_patterns import HeadSpec  # noqa: E402
-from simgen.atomic import atomic_path  # noqa: E402
-from simgen.qa.dataset import DatasetQA  # noqa: E402
-from simgen.qa.pattern import ACCUMULATED_S, FRAME_S, TARGET_AT_M, TARGET_OFF_AXIS_DEG, TARGET_RANGES_M, HeadQA, window  # noqa: E402
+from scan_patterns import HeadSpec
+from simgen.atomic import atomic_path
+from simgen.qa.dataset import DatasetQA
+from simgen.qa.pattern import ACCUMULATED_S, FRAME_S, TARGET_AT_M, TARGET_OFF_AXIS_DEG, TARGET_RANGES_M, HeadQA, window
 
 DPI = 100
 REFERENCE_STYLE = {"color": "black", "linestyle": "--", "linewidth": 1.6}
@@ -41,7 +41,9 @@ def _pattern_panel(ax, uv: np.ndarray, head: HeadSpec, title: str) -> None:
         ax.set_xlabel("off-axis angle towards +y (left), deg")
         ax.set_ylabel("off-axis angle towards +z (up), deg")
     else:
-        ax.add_patch(plt.Rectangle((az_lo, el_lo), az_hi - az_lo, el_hi - el_lo, fill=False, color="grey", linewidth=0.8))
+        ax.add_patch(
+            plt.Rectangle((az_lo, el_lo), az_hi - az_lo, el_hi - el_lo, fill=False, color="grey", linewidth=0.8)
+        )
         ax.set_xlabel("azimuth (+ left), deg")
         ax.set_ylabel("elevation (+ up), deg")
     ax.set_aspect("equal")
@@ -59,7 +61,10 @@ def shot_patterns(heads: list[HeadQA], path: Path) -> None:
         for ax, seconds in zip(row, (FRAME_S, ACCUMULATED_S)):
             uv = window(shots, seconds, head.field_of_view)
             _pattern_panel(ax, uv, head, f"{name}: {seconds:g} s, {len(uv):,} shots")
-    fig.suptitle("Shot pattern seen from behind the head (cones: azimuthal-equidistant; boxes: azimuth and elevation; colour: time, dark = early)")
+    fig.suptitle(
+        "Shot pattern seen from behind the head (cones: azimuthal-equidistant; boxes: azimuth and elevation; colour: "
+        "time, dark = early)"
+    )
     _save(fig, path)
 
 
@@ -72,7 +77,9 @@ def coverage(heads: list[HeadQA], path: Path) -> None:
         for h in compared:
             ax.plot(h.comparison.times_s, h.comparison.coverage[cell][0] * 100, marker="o", label=h.subject)
         for name, h in _references(compared).items():
-            ax.plot(h.comparison.times_s, h.comparison.coverage[cell][1] * 100, label=f"official {name}", **REFERENCE_STYLE)
+            ax.plot(
+                h.comparison.times_s, h.comparison.coverage[cell][1] * 100, label=f"official {name}", **REFERENCE_STYLE
+            )
         ax.set_xscale("log")
         ax.set_ylim(0, 102)
         ax.set_xlabel("integration time T, s")
@@ -87,7 +94,9 @@ def coverage(heads: list[HeadQA], path: Path) -> None:
 def radial_density(heads: list[HeadQA], path: Path, tolerance_rel: float) -> None:
     """Shots per solid angle and second against off-axis angle, and the relative difference."""
     compared = [h for h in heads if h.comparison is not None]
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 7.5), sharex=True, gridspec_kw={"height_ratios": [2, 1]}, layout="constrained")
+    fig, (top, bottom) = plt.subplots(
+        2, 1, figsize=(9, 7.5), sharex=True, gridspec_kw={"height_ratios": [2, 1]}, layout="constrained"
+    )
     for h in compared:
         mine, ref = h.comparison.radial
         top.plot(mine.off_axis_deg, mine.shots_per_sr_s, label=h.subject)
@@ -98,7 +107,9 @@ def radial_density(heads: list[HeadQA], path: Path, tolerance_rel: float) -> Non
         top.plot(ref.off_axis_deg, ref.shots_per_sr_s, label=f"official {name}", **REFERENCE_STYLE)
     top.set_yscale("log")
     top.set_ylabel("shots per sr per s")
-    top.set_title("Radial density: shots per solid angle and second in 0.5 deg rings (cones) or elevation bands (boxes)")
+    top.set_title(
+        "Radial density: shots per solid angle and second in 0.5 deg rings (cones) or elevation bands (boxes)"
+    )
     top.legend(fontsize=8)
     top.grid(True, which="both", alpha=0.3)
     bottom.axhspan(-tolerance_rel * 100, tolerance_rel * 100, color="green", alpha=0.12, label="tolerance")
@@ -153,7 +164,9 @@ def _binned(x: np.ndarray, y: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray
 def humanoid_points(qa: DatasetQA, path: Path) -> None:
     """Points per humanoid and frame against range and off-axis angle, from the dataset's boxes."""
     h = qa.humanoids
-    fig, axes = plt.subplots(2, 2, figsize=(12, 8), sharex="col", gridspec_kw={"height_ratios": [2, 1]}, layout="constrained")
+    fig, axes = plt.subplots(
+        2, 2, figsize=(12, 8), sharex="col", gridspec_kw={"height_ratios": [2, 1]}, layout="constrained"
+    )
     panels = (
         (h.range_m, h.off_axis_deg, "range from the sensor, m", "off-axis angle, deg", 5.0),
         (h.off_axis_deg, h.range_m, "off-axis angle from the nearest head's boresight, deg", "range, m", 2.0),
@@ -175,8 +188,12 @@ def humanoid_points(qa: DatasetQA, path: Path) -> None:
         bottom.set_ylim(0, 100)
         bottom.set_xlabel(xlabel)
         bottom.grid(True, alpha=0.3)
-    fig.suptitle(f"Points per humanoid: {len(h.points):,} samples from {qa.frames_sampled} frames "
-                 f"({(h.points == 0).mean():.0%} with no point)" if len(h.points) else "Points per humanoid: no humanoid")
+    fig.suptitle(
+        f"Points per humanoid: {len(h.points):,} samples from {qa.frames_sampled} frames "
+        f"({(h.points == 0).mean():.0%} with no point)"
+        if len(h.points)
+        else "Points per humanoid: no humanoid"
+    )
     _save(fig, path)
 
 
@@ -193,7 +210,9 @@ def frame_statistics(qa: DatasetQA, path: Path) -> None:
         axes[1].set_ylabel("share of shots, %")
         axes[1].legend(fontsize=8)
     else:
-        axes[1].text(0.5, 0.5, "this format keeps no shot counts", ha="center", va="center", transform=axes[1].transAxes)
+        axes[1].text(
+            0.5, 0.5, "this format keeps no shot counts", ha="center", va="center", transform=axes[1].transAxes
+        )
     axes[0].set_ylabel("per frame")
     axes[0].set_ylim(bottom=0)
     axes[0].legend(fontsize=8)

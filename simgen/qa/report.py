@@ -70,7 +70,8 @@ def _html_table(table: Table, verdicts: bool = False) -> str:
     rows = []
     for row in table.rows:
         cells = "".join(
-            f'<td class="{"verdict" if verdicts and i == 0 else "" if verdicts or i == 0 else "num"}">{html.escape(v)}</td>'
+            f'<td class="{"verdict" if verdicts and i == 0 else "" if verdicts or i == 0 else "num"}">'
+            f"{html.escape(v)}</td>"
             for i, v in enumerate(row)
         )
         rows.append(f'<tr class="{html.escape(row[0]) if verdicts else ""}">{cells}</tr>')
@@ -104,7 +105,10 @@ def to_html(report: Report, out_dir: Path) -> str:
         if section.text:
             parts.append(f"<p>{html.escape(section.text)}</p>")
         for path, caption in section.images:
-            parts.append(f'<figure><img src="{data_uri(out_dir / path)}" alt="{html.escape(caption)}"><figcaption>{html.escape(caption)}</figcaption></figure>')
+            parts.append(
+                f'<figure><img src="{data_uri(out_dir / path)}" '
+                f'alt="{html.escape(caption)}"><figcaption>{html.escape(caption)}</figcaption></figure>'
+            )
         parts += [_html_table(t) for t in section.tables]
     parts += [IMAGES_LOADED, "</body></html>"]
     return "\n".join(parts) + "\n"

@@ -41,7 +41,9 @@ def sensor_spec(preset: str, scenario: dict) -> sp.SensorSpec:
             if spec.get("name") == preset:
                 return sp.make_sensor(spec)
     except (AttributeError, KeyError, TypeError, ValueError) as error:  # a manifest edited by hand
-        raise UserError(f"custom sensor {preset!r} of the dataset's scenario: {' '.join(str(error).splitlines())[:200]}") from None
+        raise UserError(
+            f"custom sensor {preset!r} of the dataset's scenario: {' '.join(str(error).splitlines())[:200]}"
+        ) from None
     return sp.get_sensor(preset)
 
 

@@ -3,8 +3,8 @@
 A sensor's shots come in time order, so consecutive rays point almost the same way. Rays are
 taken `PACKET_RAYS` at a time; a packet's rays lie in a cone (the mean origin, the mean
 direction, the widest angle to it) widened by how far their origins spread, and a sphere out of
-reach of that cone, or beyond the packet's longest ray, is skipped for the whole packet. Each ray then tests exactly only the spheres its
-packet kept, so the cost grows with rays plus candidates, not rays x spheres; rays in no
+reach of that cone, or beyond the packet's longest ray, is skipped for the whole packet. Each ray then tests exactly
+only the spheres its packet kept, so the cost grows with rays plus candidates, not rays x spheres; rays in no
 order (tests' random fans) are still right, only slower.
 """
 

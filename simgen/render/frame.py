@@ -1,8 +1,8 @@
 """Render one LiDAR frame: cast the shots of a sweep into the posed scene, then apply the sensor's noise.
 
 Every shot keeps its own time: humanoids and the ball are posed per time slice (`simgen.render.world`)
-by interpolating the motion clip, so fast players smear as on a real Livox. The frame's point count is exactly its shots minus random
-dropouts minus misses (no return, out of range): `ScanFrame` says all three.
+by interpolating the motion clip, so fast players smear as on a real Livox. The frame's point count is exactly its shots
+minus random dropouts minus misses (no return, out of range): `ScanFrame` says all three.
 
 Per ray the work is compiled (numba): the analytic ground and its lines, the lookup of the
 bounding spheres a ray passes through (`simgen.render.candidates`), preparing and folding back the
@@ -64,10 +64,20 @@ def expand_subrays(rays: Rays, noise: NoiseConfig) -> Rays:
     horizontal = np.cross(d, [0.0, 0.0, 1.0])
     horizontal /= np.linalg.norm(horizontal, axis=1, keepdims=True)
     vertical = np.cross(horizontal, d)
-    spread = d[:, None] + offsets[None, :, 0, None] * horizontal[:, None] + offsets[None, :, 1, None] * vertical[:, None]
+    spread = (
+        d[:, None] + offsets[None, :, 0, None] * horizontal[:, None] + offsets[None, :, 1, None] * vertical[:, None]
+    )
     spread /= np.linalg.norm(spread, axis=2, keepdims=True)
     shot = np.repeat(np.arange(len(d)), len(offsets))
-    return Rays(rays.origin_m[shot], spread.reshape(-1, 3), rays.time_s[shot], rays.sensor[shot], rays.head[shot], rays.sweep[shot], rays.line[shot])
+    return Rays(
+        rays.origin_m[shot],
+        spread.reshape(-1, 3),
+        rays.time_s[shot],
+        rays.sensor[shot],
+        rays.head[shot],
+        rays.sweep[shot],
+        rays.line[shot],
+    )
 
 
 @numba.njit(cache=True)
@@ -102,7 +112,8 @@ def cast(world: World, rays: Rays, rng: np.random.Generator, snapshot_s: float |
     t, semantic, reflectivity, cos_incidence = _ground_hits(o, d)
     instance = np.full(n, -1, np.int32)
     if n == 0:
-        return {"t": t, "semantic": semantic, "instance": instance, "reflectivity": reflectivity, "cos_incidence": cos_incidence}
+        return {"t": t, "semantic": semantic, "instance": instance, "reflectivity": reflectivity,
+                "cos_incidence": cos_incidence}
 
     # Bounding spheres of everything but the ground, per time slice: the H bodies, the ball,
     # then the static objects; each ray meets those of its own slice.
@@ -114,9 +125,15 @@ def cast(world: World, rays: Rays, rng: np.random.Generator, snapshot_s: float |
         slice_of_ray, first, poses = np.zeros(n, np.int64), 0, world.pose_at(snapshot_s)
     num_slices, num_humanoids = poses.middle_m.shape[:2]
     statics = world.static_spheres
-    centres = np.concatenate([poses.middle_m, poses.ball_m[:, None], np.broadcast_to(statics[:, :3], (num_slices, len(statics), 3))], axis=1)
+    centres = np.concatenate(
+        [poses.middle_m, poses.ball_m[:, None], np.broadcast_to(statics[:, :3], (num_slices, len(statics), 3))], axis=1
+    )
     radius = np.concatenate(
-        [poses.reach_m, np.full((num_slices, 1), BALL_RADIUS_M), np.broadcast_to(statics[:, 3], (num_slices, len(statics)))],
+        [
+            poses.reach_m,
+            np.full((num_slices, 1), BALL_RADIUS_M),
+            np.broadcast_to(statics[:, 3], (num_slices, len(statics))),
+        ],
         axis=1,
     )
     ray, sphere = sphere_candidates(o, d, slice_of_ray - first, t, centres, radius)
@@ -164,17 +181,36 @@ def cast(world: World, rays: Rays, rng: np.random.Generator, snapshot_s: float |
     if pair.any():
         hits = world.parts.cast(o, d, t, ray[pair], ray_slice[pair], kind[pair], poses.rotation, poses.translation_m)
         template, face = np.full(n, -1, np.int64), np.full(n, -1, np.int64)
-        nearest_part_hits(hits.ray, hits.template, hits.t_start_m, hits.t_hit_m, hits.face, hits.normal, hits.direction, world.parts.face_start, t, template, face, cos_incidence)
+        nearest_part_hits(
+            hits.ray,
+            hits.template,
+            hits.t_start_m,
+            hits.t_hit_m,
+            hits.face,
+            hits.normal,
+            hits.direction,
+            world.parts.face_start,
+            t,
+            template,
+            face,
+            cos_incidence,
+        )
         got = np.nonzero(template >= 0)[0]
         humanoid = template[got] % num_humanoids
         semantic[got] = world.semantic[humanoid]
         instance[got] = world.clip.track_id[humanoid]
         reflectivity[got] = world.face_reflectivity[face[got]]
-    return {"t": t, "semantic": semantic, "instance": instance, "reflectivity": reflectivity, "cos_incidence": cos_incidence}
+    return {"t": t, "semantic": semantic, "instance": instance, "reflectivity": reflectivity,
+            "cos_incidence": cos_incidence}
 
 
 def render_frame(
-    world: World, rays: Rays, frame_start_s: float, noise: NoiseConfig, rng: np.random.Generator, snapshot_s: float | None = None
+    world: World,
+    rays: Rays,
+    frame_start_s: float,
+    noise: NoiseConfig,
+    rng: np.random.Generator,
+    snapshot_s: float | None = None,
 ) -> ScanFrame:
     """Cast a sweep's shots, keep each shot's nearest return in range, and apply the noise model.
 
@@ -201,7 +237,9 @@ def render_frame(
     return ScanFrame(
         points_m=points,
         intensity=intensity,
-        time_offset_s=((rays.time_s[shot] if snapshot_s is None else np.full(len(shot), snapshot_s)) - frame_start_s).astype(np.float32),
+        time_offset_s=(
+            (rays.time_s[shot] if snapshot_s is None else np.full(len(shot), snapshot_s)) - frame_start_s
+        ).astype(np.float32),
         sensor=rays.sensor[shot],
         head=rays.head[shot],
         sweep=rays.sweep[shot],

@@ -32,7 +32,20 @@ def intensity(reflectivity: float, cos_incidence: float) -> int:
 
 
 @numba.njit(cache=True)
-def noisy_returns(origins, directions, t_m, reflectivity, cos_incidence, subrays, min_range_m, max_range_at_10pct_m, dropout, range_sigma_m, angle_sigma_rad, rng):
+def noisy_returns(
+    origins,
+    directions,
+    t_m,
+    reflectivity,
+    cos_incidence,
+    subrays,
+    min_range_m,
+    max_range_at_10pct_m,
+    dropout,
+    range_sigma_m,
+    angle_sigma_rad,
+    rng,
+):
     """The returns of a sweep's shots (origins, unit directions (N, 3)), with noise.
 
     The hits (t_m, reflectivity, cos_incidence) come `subrays` per shot, consecutive; a shot

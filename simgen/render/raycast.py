@@ -82,7 +82,9 @@ class PartCaster:
         self.low = np.stack([v.min(axis=0) for v, _ in templates]) - BOX_MARGIN_M  # box round each template
         self.high = np.stack([v.max(axis=0) for v, _ in templates]) + BOX_MARGIN_M
         self.centre = (self.low + self.high) / 2
-        self.radius = np.array([np.linalg.norm(v - c, axis=1).max() for (v, _), c in zip(templates, self.centre)]) + BOX_MARGIN_M
+        self.radius = (
+            np.array([np.linalg.norm(v - c, axis=1).max() for (v, _), c in zip(templates, self.centre)]) + BOX_MARGIN_M
+        )
         # Templates on a cubic grid, their bounding spheres apart, near the scene's origin (float32).
         side = int(np.ceil(len(templates) ** (1 / 3)))
         cell = np.stack(np.unravel_index(np.arange(len(templates)), (side, side, side)), axis=1)
@@ -100,7 +102,19 @@ class PartCaster:
         and from the box on, so no other template can be reached first; hits beyond t_max are dropped.
         """
         local, ray, template, t_start = _part_rays(
-            origins, directions, t_max, pair_ray, pair_slice, pair_humanoid, rotation, translation, self.centre, self.radius, self.low, self.high, self.offset
+            origins,
+            directions,
+            t_max,
+            pair_ray,
+            pair_slice,
+            pair_humanoid,
+            rotation,
+            translation,
+            self.centre,
+            self.radius,
+            self.low,
+            self.high,
+            self.offset,
         )
         result = self._scene.cast_rays(o3d.core.Tensor(local), nthreads=1)
         return PartHits(
@@ -128,7 +142,9 @@ class PartHits:
 
 
 @numba.njit(cache=True)
-def _part_rays(o, d, t_max, pair_ray, pair_slice, pair_humanoid, rotation, translation, centre, radius, low, high, offset):
+def _part_rays(
+    o, d, t_max, pair_ray, pair_slice, pair_humanoid, rotation, translation, centre, radius, low, high, offset
+):
     """Per (pair, part) whose bounding sphere, then box (low, high in part coordinates), the ray
     enters before t_max: the ray in template coordinates from its box entry, (K, 6) float32
     origin + direction, its ray, template and t_start."""
@@ -141,7 +157,10 @@ def _part_rays(o, d, t_max, pair_ray, pair_slice, pair_humanoid, rotation, trans
                 j = p * num_humanoids + h
                 for a in range(3):
                     centre_world[s, h, p, a] = (
-                        rotation[s, h, p, a, 0] * centre[j, 0] + rotation[s, h, p, a, 1] * centre[j, 1] + rotation[s, h, p, a, 2] * centre[j, 2] + translation[s, h, p, a]
+                        rotation[s, h, p, a, 0] * centre[j, 0]
+                        + rotation[s, h, p, a, 1] * centre[j, 1]
+                        + rotation[s, h, p, a, 2] * centre[j, 2]
+                        + translation[s, h, p, a]
                     )
     capacity = max(16, 2 * len(pair_ray))
     local = np.empty((capacity, 6), np.float32)
@@ -192,7 +211,20 @@ def _part_rays(o, d, t_max, pair_ray, pair_slice, pair_humanoid, rotation, trans
 
 
 @numba.njit(cache=True)
-def nearest_part_hits(hits_ray, hits_template, t_start, t_hit, face, normal, direction, face_start, t_m, hit_template, hit_face, cos_incidence):
+def nearest_part_hits(
+    hits_ray,
+    hits_template,
+    t_start,
+    t_hit,
+    face,
+    normal,
+    direction,
+    face_start,
+    t_m,
+    hit_template,
+    hit_face,
+    cos_incidence,
+):
     """Fold part hits into the rays' nearest hits so far: where a hit on the ray's own template lies
     nearer than t_m[ray], set t_m, hit_template, hit_face and |cos| of the incidence angle (in place)."""
     for k in range(len(hits_ray)):

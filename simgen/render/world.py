@@ -33,7 +33,14 @@ class SlicePoses:
 
     def __getitem__(self, index: slice) -> SlicePoses:
         start = index.start or 0
-        return SlicePoses(self.first + start, self.middle_m[index], self.reach_m[index], self.ball_m[index], self.rotation[index], self.translation_m[index])
+        return SlicePoses(
+            self.first + start,
+            self.middle_m[index],
+            self.reach_m[index],
+            self.ball_m[index],
+            self.rotation[index],
+            self.translation_m[index],
+        )
 
 
 class World:

@@ -51,7 +51,9 @@ def sensor_infos(scenario: Scenario) -> list[SensorInfo]:
     return infos
 
 
-def frame_rays(scenario: Scenario, specs: list[scan_patterns.SensorSpec], frame_index: int, clip_start_s: float) -> Rays:
+def frame_rays(
+    scenario: Scenario, specs: list[scan_patterns.SensorSpec], frame_index: int, clip_start_s: float
+) -> Rays:
     """The rays of every sensor's shots in frame `frame_index`, in the pitch frame (specs: `Scenario.sensor_specs()`),
     each with the sweep of the frame it belongs to (`scan.sweeps_per_frame` sweeps merged per frame)."""
     scan = scenario.scan
@@ -63,20 +65,58 @@ def frame_rays(scenario: Scenario, specs: list[scan_patterns.SensorSpec], frame_
             shots = scan_patterns.head_shots(head, t0, t1, scan.density, index)
             heads.append((i, index, shots, to_pitch @ head_rotation(head.yaw_deg, head.pitch_deg)))
     n = sum(len(shots) for _, _, shots, _ in heads)
-    rays = Rays(np.empty((n, 3)), np.empty((n, 3)), np.empty(n), np.empty(n, np.uint8), np.empty(n, np.uint8), np.empty(n, np.uint8), np.empty(n, np.uint8))
+    rays = Rays(
+        np.empty((n, 3)),
+        np.empty((n, 3)),
+        np.empty(n),
+        np.empty(n, np.uint8),
+        np.empty(n, np.uint8),
+        np.empty(n, np.uint8),
+        np.empty(n, np.uint8),
+    )
     start = 0
     for i, index, shots, rotation in heads:
         pose = scenario.sensors[i].pose
         origin = np.array([pose.x, pose.y, pose.z])
-        _fill_head(rays.origin_m, rays.direction, rays.time_s, rays.sensor, rays.head, start, shots.dirs, shots.t_s, rotation, origin, clip_start_s, i, index)
-        rays.sweep[start : start + len(shots)] = scan_patterns.sweep_index(shots.t_s, t0, scan.frame_rate_hz, scan.sweeps_per_frame)
+        _fill_head(
+            rays.origin_m,
+            rays.direction,
+            rays.time_s,
+            rays.sensor,
+            rays.head,
+            start,
+            shots.dirs,
+            shots.t_s,
+            rotation,
+            origin,
+            clip_start_s,
+            i,
+            index,
+        )
+        rays.sweep[start : start + len(shots)] = scan_patterns.sweep_index(
+            shots.t_s, t0, scan.frame_rate_hz, scan.sweeps_per_frame
+        )
         rays.line[start : start + len(shots)] = shots.line
         start += len(shots)
     return rays
 
 
 @numba.njit(cache=True)
-def _fill_head(origin, direction, time_s, sensor, head, start, head_directions, head_times_s, rotation, sensor_origin, clip_start_s, sensor_index, head_index):
+def _fill_head(
+    origin,
+    direction,
+    time_s,
+    sensor,
+    head,
+    start,
+    head_directions,
+    head_times_s,
+    rotation,
+    sensor_origin,
+    clip_start_s,
+    sensor_index,
+    head_index,
+):
     """Write one head's shots into rays from `start`: directions (float32, head frame) turned into
     the pitch frame by `rotation`, times (s, pattern clock) shifted to game time."""
     for k in range(len(head_times_s)):

@@ -1,7 +1,8 @@
 """The pitch: an analytic ground plane (z = 0) with painted lines (IFAB Laws of the Game sizes).
 
 No mesh: a ray's ground hit is solved in closed form (`simgen.render.frame`), and `on_line_at` says
-whether the hit point is on a painted line (compiled: the renderer asks it for every ray). Pitch frame of `simgen.vocab`; metres.
+whether the hit point is on a painted line (compiled: the renderer asks it for every ray). Pitch frame of
+`simgen.vocab`; metres.
 """
 
 from __future__ import annotations
@@ -45,7 +46,10 @@ def on_line_at(x: float, y: float) -> bool:
     if _near_circle(centre2, CENTRE_CIRCLE_RADIUS_M) or centre2 <= SPOT_RADIUS_M**2:
         return True
     # Penalty and goal areas: the line parallel to the goal line and the two sides.
-    for depth, half_width in ((PENALTY_AREA_DEPTH_M, PENALTY_AREA_HALF_WIDTH_M), (GOAL_AREA_DEPTH_M, GOAL_AREA_HALF_WIDTH_M)):
+    for depth, half_width in (
+        (PENALTY_AREA_DEPTH_M, PENALTY_AREA_HALF_WIDTH_M),
+        (GOAL_AREA_DEPTH_M, GOAL_AREA_HALF_WIDTH_M),
+    ):
         front = HALF_LENGTH_M - depth
         if _near(ax, front) and ay <= half_width + half_line:
             return True
@@ -59,4 +63,8 @@ def on_line_at(x: float, y: float) -> bool:
     if _near_circle(spot2, CENTRE_CIRCLE_RADIUS_M) and ax < HALF_LENGTH_M - PENALTY_AREA_DEPTH_M:
         return True
     corner_x, corner_y = ax - HALF_LENGTH_M, ay - HALF_WIDTH_M
-    return _near_circle(corner_x * corner_x + corner_y * corner_y, CORNER_ARC_RADIUS_M) and ax <= HALF_LENGTH_M and ay <= HALF_WIDTH_M
+    return (
+        _near_circle(corner_x * corner_x + corner_y * corner_y, CORNER_ARC_RADIUS_M)
+        and ax <= HALF_LENGTH_M
+        and ay <= HALF_WIDTH_M
+    )

@@ -88,7 +88,9 @@ def surroundings_meshes(board_offset_m: float = 4.0, stand_rows: int = 12) -> li
     ]
     row_depth, row_rise = 0.8, 0.4
     stand = [
-        _box((0, by + 2.0 + (row + 0.5) * row_depth, (row + 1) * row_rise / 2), (2 * bx, row_depth, (row + 1) * row_rise))
+        _box(
+            (0, by + 2.0 + (row + 0.5) * row_depth, (row + 1) * row_rise / 2), (2 * bx, row_depth, (row + 1) * row_rise)
+        )
         for row in range(stand_rows)
     ]
     return boards + stand
@@ -106,7 +108,11 @@ def build_static_scene(goals: bool = True, surroundings: bool = False, net_trans
         parts += [(mesh, SURROUNDINGS, 0.6 if i < 4 else 0.3, 0.0) for i, mesh in enumerate(surroundings_meshes())]
     if not parts:
         empty = np.zeros((0, 3))
-        return StaticScene(empty.astype(np.float32), empty.astype(np.int32), *(np.zeros(0, t) for t in (np.uint8, np.float32, np.float32)))
+        return StaticScene(
+            empty.astype(np.float32),
+            empty.astype(np.int32),
+            *(np.zeros(0, t) for t in (np.uint8, np.float32, np.float32)),
+        )
     offsets = np.cumsum([0] + [len(mesh.vertices) for mesh, *_ in parts])
     counts = [len(mesh.faces) for mesh, *_ in parts]
     return StaticScene(

@@ -99,7 +99,9 @@ def canvas_for(sensors: list[SensorGeometry], px_per_m: float) -> Canvas:
     return Canvas((min(xs) - MARGIN_M, max(xs) + MARGIN_M), (min(ys) - MARGIN_M, max(ys) + MARGIN_M), px_per_m)
 
 
-def _arc(canvas: Canvas, centre: tuple[float, float], radius_m: float, from_rad: float, to_rad: float) -> NDArray[np.int32]:
+def _arc(
+    canvas: Canvas, centre: tuple[float, float], radius_m: float, from_rad: float, to_rad: float
+) -> NDArray[np.int32]:
     angles = np.linspace(from_rad, to_rad, 64)
     return canvas.bev(centre[0] + radius_m * np.cos(angles), centre[1] + radius_m * np.sin(angles))
 
@@ -113,7 +115,10 @@ def pitch_lines(canvas: Canvas) -> list[NDArray[np.int32]]:
     lines = [rect(-L, -W, L, W), canvas.bev(np.array([0.0, 0.0]), np.array([-W, W])),
              _arc(canvas, (0.0, 0.0), CENTRE_CIRCLE_RADIUS_M, 0.0, 2 * np.pi)]
     for side in (-1.0, 1.0):
-        for depth, half in ((PENALTY_AREA_DEPTH_M, PENALTY_AREA_HALF_WIDTH_M), (GOAL_AREA_DEPTH_M, GOAL_AREA_HALF_WIDTH_M)):
+        for depth, half in (
+            (PENALTY_AREA_DEPTH_M, PENALTY_AREA_HALF_WIDTH_M),
+            (GOAL_AREA_DEPTH_M, GOAL_AREA_HALF_WIDTH_M),
+        ):
             lines.append(rect(side * L, -half, side * (L - depth), half))
         spot = side * (L - PENALTY_SPOT_M)
         reach = np.arccos((PENALTY_AREA_DEPTH_M - PENALTY_SPOT_M) / CENTRE_CIRCLE_RADIUS_M)  # the arc outside the area
@@ -122,7 +127,9 @@ def pitch_lines(canvas: Canvas) -> list[NDArray[np.int32]]:
         lines.append(_arc(canvas, (spot, 0.0), 0.15, 0.0, 2 * np.pi))
         for corner_y in (-1.0, 1.0):
             start = np.arctan2(-corner_y, -side)
-            lines.append(_arc(canvas, (side * L, corner_y * W), CORNER_ARC_RADIUS_M, start - np.pi / 4, start + np.pi / 4))
+            lines.append(
+                _arc(canvas, (side * L, corner_y * W), CORNER_ARC_RADIUS_M, start - np.pi / 4, start + np.pi / 4)
+            )
     return lines
 
 
@@ -142,7 +149,16 @@ def background(canvas: Canvas, sensors: list[SensorGeometry]) -> NDArray[np.uint
     image[top : top + 2] = 90
     ground = canvas.side(np.array(canvas.x_range_m), np.zeros(2))
     cv2.line(image, tuple(ground[0]), tuple(ground[1]), LINE_COLOUR, 1)
-    cv2.putText(image, f"side view, looking along +y; height x{SIDE_Z_STRETCH:g}", (6, top + 18), FONT, 0.45, TEXT_COLOUR, 1, cv2.LINE_AA)
+    cv2.putText(
+        image,
+        f"side view, looking along +y; height x{SIDE_Z_STRETCH:g}",
+        (6, top + 18),
+        FONT,
+        0.45,
+        TEXT_COLOUR,
+        1,
+        cv2.LINE_AA,
+    )
     return image
 
 
@@ -153,7 +169,13 @@ def point_colours(values: NDArray, colouring: str) -> NDArray[np.uint8]:
     return cv2.applyColorMap(scaled.reshape(-1, 1), cv2.COLORMAP_TURBO).reshape(-1, 3)
 
 
-def _splat(image: NDArray[np.uint8], pixels: NDArray[np.int32], colours: NDArray[np.uint8], order: NDArray, rows: tuple[int, int]) -> None:
+def _splat(
+    image: NDArray[np.uint8],
+    pixels: NDArray[np.int32],
+    colours: NDArray[np.uint8],
+    order: NDArray,
+    rows: tuple[int, int],
+) -> None:
     """2 x 2 pixel dots inside the image rows [rows); where dots overlap, the later in `order` shows."""
     offsets = np.array([[0, 0], [1, 0], [0, 1], [1, 1]])
     spots = (pixels[order][None, :, :] + offsets[:, None, :]).reshape(-1, 2)
@@ -177,7 +199,9 @@ def _boxes(image: NDArray[np.uint8], canvas: Canvas, frame: Frame) -> None:
     for i, (x, y, z, length, width, height, yaw) in enumerate(np.asarray(frame.boxes, np.float64)):
         colour = _box_colour(frame, i)
         heading, left = np.array([np.cos(yaw), np.sin(yaw)]), np.array([-np.sin(yaw), np.cos(yaw)])
-        corners = np.array([[x, y]]) + np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]]) @ np.array([heading * length / 2, left * width / 2])
+        corners = np.array([[x, y]]) + np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]]) @ np.array(
+            [heading * length / 2, left * width / 2]
+        )
         cv2.polylines(image, [canvas.bev(corners[:, 0], corners[:, 1])], True, colour, 1, cv2.LINE_AA)
         centre, tip = canvas.bev(x, y), canvas.bev(*(np.array([x, y]) + ARROW_M * heading))
         cv2.arrowedLine(image, tuple(centre), tuple(tip), colour, 1, cv2.LINE_AA, tipLength=0.35)

@@ -24,5 +24,6 @@ def export_frame(frame: Frame, path: Path) -> None:
     with atomic_suffixed(path) as tmp:
         if not o3d.t.io.write_point_cloud(str(tmp), cloud):
             raise UserError(f"{path}: Open3D could not write the point cloud")
-        if tmp.stat().st_size < BYTES_PER_POINT * len(frame.points_m):  # Open3D reports a failed close (a full disk) as success
+        # Open3D reports a failed close (a full disk) as success
+        if tmp.stat().st_size < BYTES_PER_POINT * len(frame.points_m):
             raise UserError(f"{path}: written incompletely (is the disk full?)")

@@ -65,7 +65,9 @@ def clip_canvas(dataset: Dataset, px_per_m: float) -> tuple[Canvas, np.ndarray]:
     return canvas, background(canvas, sensors)
 
 
-def write_clip_view(dataset: Dataset, clip: str, frames: range, out_dir: Path, colouring: str, px_per_m: float) -> ClipView:
+def write_clip_view(
+    dataset: Dataset, clip: str, frames: range, out_dir: Path, colouring: str, px_per_m: float
+) -> ClipView:
     """OUT/<clip>/frame_NNNNNN.png for each frame and OUT/<clip>.mp4 of them all, at the clip's frame rate."""
     canvas, base = clip_canvas(dataset, px_per_m)
     frame_dir = out_dir / clip

@@ -63,7 +63,9 @@ def frustum_strips(sensor: SensorGeometry) -> list[NDArray[np.float64]]:
         up = np.cross(side, boresight)
         angles = np.linspace(0.0, 2 * np.pi, RIM_SEGMENTS + 1)
         half = np.radians(half_deg)
-        rim = FRUSTUM_RANGE_M * (np.cos(half) * boresight + np.sin(half) * (np.cos(angles)[:, None] * side + np.sin(angles)[:, None] * up))
+        rim = FRUSTUM_RANGE_M * (
+            np.cos(half) * boresight + np.sin(half) * (np.cos(angles)[:, None] * side + np.sin(angles)[:, None] * up)
+        )
         strips.append(rim)
         strips += [np.array([np.zeros(3), rim[k]]) for k in range(0, RIM_SEGMENTS, RIM_SEGMENTS // 4)]
     return strips
@@ -74,7 +76,9 @@ def _rgb(bgr: NDArray[np.uint8]) -> NDArray[np.uint8]:
 
 
 def _box_colours(frame: Frame) -> NDArray[np.uint8]:
-    colours = np.array([CLASS_COLOURS.get(str(name), CLASS_COLOURS["Pedestrian"]) for name in frame.class_name], np.uint8).reshape(-1, 3)
+    colours = np.array(
+        [CLASS_COLOURS.get(str(name), CLASS_COLOURS["Pedestrian"]) for name in frame.class_name], np.uint8
+    ).reshape(-1, 3)
     if frame.num_points is not None:
         colours[np.asarray(frame.num_points) == 0] = UNSEEN_COLOUR
     return colours
@@ -120,7 +124,9 @@ def write_recording(dataset: Dataset, clip: str, frames: range, path: Path, colo
     from tqdm import tqdm
 
     sensors = [sensor_geometry(info, dataset.manifest.scenario) for info in dataset.manifest.sensors]
-    rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"{dataset.root.resolve().name}.{clip}", send_properties=False)
+    rec = rr.RecordingStream(
+        APPLICATION_ID, recording_id=f"{dataset.root.resolve().name}.{clip}", send_properties=False
+    )
     rr.set_log_time_enabled(False, recording=rec)
     with atomic_suffixed(path) as tmp:
         rec.save(tmp)

@@ -27,7 +27,6 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-
 CHROMIUM = Path("/usr/bin/chromium")
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync"]
@@ -52,7 +51,7 @@ def serve(directory: Path) -> Iterator[str]:
 
 
 class _QuietHandler(http.server.SimpleHTTPRequestHandler):
-    def log_message(self, format, *args) -> None:  # noqa: A002 - http.server's signature
+    def log_message(self, format, *args) -> None:
         pass
 
 
@@ -141,7 +140,9 @@ def browser(arguments: list[str], **popen) -> Iterator[subprocess.Popen]:
     require_chromium()
     profile = Path(tempfile.mkdtemp(prefix="chromium-profile-"))
     try:
-        process = subprocess.Popen([str(CHROMIUM), *FLAGS, f"--user-data-dir={profile}", *arguments], process_group=0, **popen)
+        process = subprocess.Popen(
+            [str(CHROMIUM), *FLAGS, f"--user-data-dir={profile}", *arguments], process_group=0, **popen
+        )
         try:
             yield process
         finally:
@@ -170,7 +171,9 @@ def evaluate(url: str, expression: str, timeout_s: float = 60.0):
         os.dup2(from_chromium[1], 4)
 
     arguments = ["--remote-debugging-pipe", "--autoplay-policy=no-user-gesture-required", "about:blank"]
-    with browser(arguments, pass_fds=(3, 4), preexec_fn=descriptors, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) as process:
+    with browser(
+        arguments, pass_fds=(3, 4), preexec_fn=descriptors, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    ) as process:
         os.close(to_chromium[0])
         os.close(from_chromium[1])
         timer = threading.Timer(timeout_s, _kill_group, (process.pid,))  # a page that never answers ends the test
@@ -182,7 +185,9 @@ def evaluate(url: str, expression: str, timeout_s: float = 60.0):
             pipe.call("Page.enable", session=session)
             pipe.send("Page.navigate", {"url": url}, session)
             pipe.wait("Page.loadEventFired")
-            reply = pipe.call("Runtime.evaluate", {"expression": expression, "awaitPromise": True, "returnByValue": True}, session)
+            reply = pipe.call(
+                "Runtime.evaluate", {"expression": expression, "awaitPromise": True, "returnByValue": True}, session
+            )
             if "exceptionDetails" in reply:
                 raise RuntimeError(f"{url}: {reply['exceptionDetails']}")
             return reply["result"].get("value")

@@ -24,7 +24,11 @@ SENSOR_M = np.array([0.0, -36.0, 4.0])
 
 
 def sensors() -> list[SensorInfo]:
-    return [SensorInfo(0, "mid100", "mid100-risley", (0.0, -36.0, 4.0, 0.0, -10.0, 90.0), 3, 150_000.0, FRAME_RATE_HZ, 1, 1.0)]
+    return [
+        SensorInfo(
+            0, "mid100", "mid100-risley", (0.0, -36.0, 4.0, 0.0, -10.0, 90.0), 3, 150_000.0, FRAME_RATE_HZ, 1, 1.0
+        )
+    ]
 
 
 def _teams(humanoids: int) -> tuple[np.ndarray, np.ndarray]:
@@ -71,7 +75,9 @@ def _scan(rng: np.random.Generator, points: int, centres: np.ndarray, team: np.n
     who = rng.integers(0, max(len(centres) - 1, 1), on_body)
     xyz_body = centres[who] + rng.normal(0, 0.25, (on_body, 3)) if len(centres) > 1 else np.zeros((0, 3))
     instance = np.concatenate([np.full(ground, -1), who + 1]).astype(np.int32)
-    semantic = np.concatenate([np.full(ground, GROUND), np.where(team[who] == "official", OFFICIAL, PLAYER)]).astype(np.uint8)
+    semantic = np.concatenate([np.full(ground, GROUND), np.where(team[who] == "official", OFFICIAL, PLAYER)]).astype(
+        np.uint8
+    )
     if ground:
         instance[0], semantic[0] = BALL_INSTANCE_ID, BALL
     shots = int(points * 1.25)
@@ -115,5 +121,10 @@ def sample_clips() -> list[list[LabelledFrame]]:
     """Three small clips; the last has a frame with no points and one with no humanoid."""
     clips = [make_clip(f"clip_{i:04d}", 4, seed=i) for i in range(2)]
     empty = make_clip("clip_0002", 1, points=0, humanoids=3, seed=5) + make_clip("clip_0002", 1, humanoids=0, seed=6)
-    clips.append([LabelledFrame(f.clip, i, *frame_times(START_S, FRAME_RATE_HZ, i), f.scan, f.labels) for i, f in enumerate(empty)])
+    clips.append(
+        [
+            LabelledFrame(f.clip, i, *frame_times(START_S, FRAME_RATE_HZ, i), f.scan, f.labels)
+            for i, f in enumerate(empty)
+        ]
+    )
     return clips

@@ -32,10 +32,17 @@ def tiny_config(fusion: str, channels: int = 8, **train: object) -> DetectorConf
     return parse_config(
         {
             "name": f"tiny_{fusion}",
-            "data": {"point_range_m": TINY_RANGE_M, "augment": {"rotation_rad": 0.0, "flip_x": False, "scale": [1.0, 1.0]}},
+            "data": {
+                "point_range_m": TINY_RANGE_M,
+                "augment": {"rotation_rad": 0.0, "flip_x": False, "scale": [1.0, 1.0]},
+            },
             "model": {
                 "pillar_encoder": {"channels": channels},
-                "backbone_2d": {"layers": [1, 2, 2], "channels": [channels, channels, 2 * channels], "upsample_channels": [channels] * 3},
+                "backbone_2d": {
+                    "layers": [1, 2, 2],
+                    "channels": [channels, channels, 2 * channels],
+                    "upsample_channels": [channels] * 3,
+                },
                 "fusion": {"name": FUSION_NAMES[fusion]},
                 "head": {"tracklet_boxes": 3 if fusion == "late" else 1},
             },

@@ -19,7 +19,7 @@ from hypothesis.strategies import SearchStrategy
 
 from tests.support import ROOT
 
-SETTINGS = dict(deadline=None, suppress_health_check=list(HealthCheck), database=None)
+SETTINGS = {"deadline": None, "suppress_health_check": list(HealthCheck), "database": None}
 MAX_SECONDS_EACH = 2.0  # CPU seconds of this process per refusal; a real process adds its start-up
 MAX_GROWTH_BYTES = 256 << 20  # peak memory of this process, over all the generated cases
 
@@ -41,8 +41,12 @@ def assert_one_line_refusal(code: int, out: str, err: str, what: object) -> None
     assert "Traceback" not in err, (what, err)
 
 
-def refuse_generated(strategy: SearchStrategy, examples: int,
-                     prepare: Callable[[object], tuple[str, object, Callable[[], tuple[int, str, str]]]], what: str) -> dict[str, int]:
+def refuse_generated(
+    strategy: SearchStrategy,
+    examples: int,
+    prepare: Callable[[object], tuple[str, object, Callable[[], tuple[int, str, str]]]],
+    what: str,
+) -> dict[str, int]:
     """Draw `examples` cases from `strategy`; `prepare(case)` gives (kind, context for a failure, the refusal to
     run -> exit code, stdout, stderr). Each must be refused in one line, within MAX_SECONDS_EACH CPU seconds of
     this process (what the refusal costs, whatever the machine's load), and all of them within

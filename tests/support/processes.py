@@ -38,7 +38,9 @@ def run_simgen(*args: str, timeout: float = 600) -> subprocess.CompletedProcess:
 
 def imported_heavy(*arguments: str) -> set[str]:
     """Which of HEAVY and numba a `simgen` command line imports."""
-    result = subprocess.run([sys.executable, "-c", PROBE % (set(HEAVY),), *arguments], capture_output=True, text=True, cwd=ROOT)
+    result = subprocess.run(
+        [sys.executable, "-c", PROBE % (set(HEAVY),), *arguments], capture_output=True, text=True, cwd=ROOT
+    )
     line = next(line for line in result.stderr.splitlines() if line.startswith("IMPORTED "))
     return set(json.loads(line.removeprefix("IMPORTED ")))
 
@@ -52,8 +54,20 @@ def local_ray_cluster():
         port = probe.getsockname()[1]
     env = {**os.environ, "RAY_USAGE_STATS_ENABLED": "0"}
     subprocess.run(
-        [ray, "start", "--head", f"--port={port}", "--node-ip-address=127.0.0.1", "--num-cpus=2", "--include-dashboard=false", "--disable-usage-stats"],
-        check=True, capture_output=True, env=env, timeout=180,
+        [
+            ray,
+            "start",
+            "--head",
+            f"--port={port}",
+            "--node-ip-address=127.0.0.1",
+            "--num-cpus=2",
+            "--include-dashboard=false",
+            "--disable-usage-stats",
+        ],
+        check=True,
+        capture_output=True,
+        env=env,
+        timeout=180,
     )
     try:
         yield f"127.0.0.1:{port}"

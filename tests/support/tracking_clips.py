@@ -9,8 +9,8 @@ each other with 0.3 m between their paths.
 
 Tracklets are the ground-truth boxes at t-2, t-1 and t (the first frames repeat frame 0), with,
 optionally, Gaussian noise, runs of missed detections, false tracklets (anywhere, duplicates
-straying from a detected player, or a flood of near-duplicates a set distance from each), and *fused* tracklets for players closer than
-``fuse_distance_m``: one tracklet whose boxes are the average of the two players' (centre, size and
+straying from a detected player, or a flood of near-duplicates a set distance from each), and *fused* tracklets for
+players closer than ``fuse_distance_m``: one tracklet whose boxes are the average of the two players' (centre, size and
 box axis), as in the paper's Fig. 4. Everything random comes from the numpy Generator passed in.
 """
 
@@ -277,7 +277,9 @@ def make_tracklets(clip: PlayersClip, noise: DetectionNoise, rng: np.random.Gene
     return out
 
 
-def _near_duplicates(boxes: NDArray[np.float64], noise: DetectionNoise, rng: np.random.Generator) -> NDArray[np.float64]:
+def _near_duplicates(
+    boxes: NDArray[np.float64], noise: DetectionNoise, rng: np.random.Generator
+) -> NDArray[np.float64]:
     """Copies of tracklets (N, 3, 7), a Poisson number each, moved a uniform distance in a uniform direction."""
     near = np.repeat(boxes, rng.poisson(noise.near_duplicates, len(boxes)), axis=0)
     away = rng.uniform(*noise.near_distance_m, len(near))

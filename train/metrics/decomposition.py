@@ -21,7 +21,13 @@ from train.metrics.detection import FrameBoxes, detection_ap, similarities
 
 MATCH_M = 1.0  # a detection within this of a labelled box's centre found it (metres, pitch plane)
 # The parts of a box a fix replaces: centre x-y, size (length, width, height), heading, centre height.
-PARTS: dict[str, tuple[int, ...]] = {"centre": (0, 1), "size": (3, 4, 5), "heading": (6,), "z": (2,), "all": tuple(range(7))}
+PARTS: dict[str, tuple[int, ...]] = {
+    "centre": (0, 1),
+    "size": (3, 4, 5),
+    "heading": (6,),
+    "z": (2,),
+    "all": tuple(range(7)),
+}
 
 
 @dataclass(frozen=True)

@@ -30,7 +30,6 @@ from train.geometry import bev_iou_pairs, iou_3d_pairs
 from train.metrics.recall_levels import level_thresholds
 
 
-
 def centre_closeness_pairs(a: NDArray, b: NDArray) -> NDArray[np.float64]:
     """(N,) minus the BEV (pitch-plane) distance in metres of the centres of row i of a and b (N, 7)."""
     return -np.linalg.norm(np.asarray(a, np.float64)[:, :2] - np.asarray(b, np.float64)[:, :2], axis=-1)
@@ -52,7 +51,8 @@ class FrameBoxes:
     boxes: NDArray[np.float32]  # (N, 7) detected
     scores: NDArray[np.float32]  # (N,)
     truth: NDArray[np.float32]  # (G, 7) labelled
-    ignore: NDArray[np.bool_] | None = None  # (G,) labelled boxes that count neither way (a detection on one is dropped)
+    # (G,) labelled boxes that count neither way (a detection on one is dropped)
+    ignore: NDArray[np.bool_] | None = None
 
     @property
     def counted_truth(self) -> int:
@@ -63,14 +63,22 @@ def similarities(frames: Sequence[FrameBoxes], iou_kind: str) -> list[NDArray[np
     """Per frame, (N, G) similarity of its detections and labelled boxes: every frame's pairs in one
     call (thousands of small per-frame calls cost more than the geometry)."""
     sizes = [(len(f.boxes), len(f.truth)) for f in frames]
-    detected = np.concatenate([np.repeat(np.asarray(f.boxes, np.float64).reshape(-1, 7), g, axis=0) for f, (_, g) in zip(frames, sizes)] or [np.zeros((0, 7))])
-    truth = np.concatenate([np.tile(np.asarray(f.truth, np.float64).reshape(-1, 7), (n, 1)) for f, (n, _) in zip(frames, sizes)] or [np.zeros((0, 7))])
+    detected = np.concatenate(
+        [np.repeat(np.asarray(f.boxes, np.float64).reshape(-1, 7), g, axis=0) for f, (_, g) in zip(frames, sizes)]
+        or [np.zeros((0, 7))]
+    )
+    truth = np.concatenate(
+        [np.tile(np.asarray(f.truth, np.float64).reshape(-1, 7), (n, 1)) for f, (n, _) in zip(frames, sizes)]
+        or [np.zeros((0, 7))]
+    )
     flat = PAIR_FUNCTIONS[iou_kind](detected, truth)
     ends = np.cumsum([n * g for n, g in sizes])
     return [block.reshape(n, g) for block, (n, g) in zip(np.split(flat, ends[:-1]), sizes)]
 
 
-def _match(frame: FrameBoxes, similarity: NDArray[np.float64], threshold: float) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+def _match(
+    frame: FrameBoxes, similarity: NDArray[np.float64], threshold: float
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     """(N,) true positives and (N,) detections matched to an ignored box, in the input order; `similarity`
     (N, G) at or above `threshold` matches."""
     tp, dropped = np.zeros(len(frame.boxes), bool), np.zeros(len(frame.boxes), bool)
@@ -123,8 +131,13 @@ def average_precision(scores: NDArray[np.float32], tp: NDArray[np.bool_], num_tr
     return float(100.0 * chosen.mean())
 
 
-def detection_aps(frames: Sequence[FrameBoxes], iou_kind: str, threshold: float = 0.5,
-                  recall_points: Sequence[int] = RECALL_POINTS, similarity: list[NDArray[np.float64]] | None = None) -> list[float]:
+def detection_aps(
+    frames: Sequence[FrameBoxes],
+    iou_kind: str,
+    threshold: float = 0.5,
+    recall_points: Sequence[int] = RECALL_POINTS,
+    similarity: list[NDArray[np.float64]] | None = None,
+) -> list[float]:
     """AP in percent over frames at each of `recall_points`, with IoU `iou_kind` ('bev' or '3d') at
     `threshold`, or 'centre' within `threshold` metres; detections on ignored labelled boxes are left
     out. `similarity`: the frames' `similarities` for `iou_kind`, when the caller has them already."""

@@ -55,7 +55,9 @@ def _dense_ids(ids: Sequence[NDArray[np.int64]]) -> tuple[list[NDArray[np.intp]]
     return [inverse[a:b] for a, b in zip(bounds[:-1], bounds[1:])], len(unique)
 
 
-def centre_similarity(a: NDArray[np.float64], b: NDArray[np.float64], tolerance_m: float = GS_TOLERANCE_M) -> NDArray[np.float64]:
+def centre_similarity(
+    a: NDArray[np.float64], b: NDArray[np.float64], tolerance_m: float = GS_TOLERANCE_M
+) -> NDArray[np.float64]:
     """(P, Q) exp(ln(0.05) d^2 / tolerance^2) of the BEV centre distance d of boxes a (P, 7) and b (Q, 7)."""
     gap_sq = np.sum((np.asarray(a)[:, None, :2] - np.asarray(b)[None, :, :2]) ** 2, axis=-1)
     return np.exp(np.log(0.05) * gap_sq / tolerance_m**2)

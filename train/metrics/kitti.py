@@ -5,8 +5,8 @@ The lines are those simgen.datasets writes for its ``kitti_tracking`` labels,
 adding the score, in the same virtual camera (simgen.datasets.kitti_camera: 150 m behind the centre
 spot, so every box on the pitch is 94-206 m in front of it, at KITTI's own scale for float32 tools;
 2D boxes are its projected corners, at least 30 px tall for anything 0.25 m tall, above the 25 px
-under which KITTI's devkit drops a box). An evaluator such as AB3DMOT's ``evaluate_kitti3dmot.py`` thus scores these files
-against a simgen KITTI tracking dataset's labels as they are.
+under which KITTI's devkit drops a box). An evaluator such as AB3DMOT's ``evaluate_kitti3dmot.py`` thus scores these
+files against a simgen KITTI tracking dataset's labels as they are.
 """
 
 from __future__ import annotations

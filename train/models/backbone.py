@@ -11,11 +11,19 @@ from train.models.sparse_canvas import SparseCanvas, sparse_conv2d
 
 
 def _conv(inputs: int, outputs: int, stride: int = 1) -> list[nn.Module]:
-    return [nn.Conv2d(inputs, outputs, 3, stride, 1, bias=False), nn.BatchNorm2d(outputs, eps=1e-3, momentum=0.1), nn.ReLU()]
+    return [
+        nn.Conv2d(inputs, outputs, 3, stride, 1, bias=False),
+        nn.BatchNorm2d(outputs, eps=1e-3, momentum=0.1),
+        nn.ReLU(),
+    ]
 
 
 def _up(inputs: int, outputs: int, stride: int) -> nn.Sequential:
-    conv = nn.ConvTranspose2d(inputs, outputs, stride, stride, bias=False) if stride > 1 else nn.Conv2d(inputs, outputs, 1, bias=False)
+    conv = (
+        nn.ConvTranspose2d(inputs, outputs, stride, stride, bias=False)
+        if stride > 1
+        else nn.Conv2d(inputs, outputs, 1, bias=False)
+    )
     return nn.Sequential(conv, nn.BatchNorm2d(outputs, eps=1e-3, momentum=0.1), nn.ReLU())
 
 

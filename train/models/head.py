@@ -27,7 +27,7 @@ class HeadOutput:
     deltas: torch.Tensor  # (B, N_a, K, 7) residuals against the anchor, oldest box first
     direction: torch.Tensor  # (B, N_a, 2) logits
 
-    def float(self) -> "HeadOutput":
+    def float(self) -> HeadOutput:
         """float32 copies (the loss and decoding run in float32 under autocast)."""
         return HeadOutput(self.scores.float(), self.deltas.float(), self.direction.float())
 

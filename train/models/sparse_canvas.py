@@ -51,7 +51,10 @@ def sparse_conv2d(canvas: SparseCanvas, conv: nn.Conv2d) -> torch.Tensor:
         shifted_r = row + pad_r - tap_r  # the output row times the stride this tap reaches
         for tap_c in range(kernel_c):
             shifted_c = col + pad_c - tap_c
-            out_r, out_c = shifted_r.div(stride_r, rounding_mode="floor"), shifted_c.div(stride_c, rounding_mode="floor")
+            out_r, out_c = (
+                shifted_r.div(stride_r, rounding_mode="floor"),
+                shifted_c.div(stride_c, rounding_mode="floor"),
+            )
             valid = ((shifted_r % stride_r == 0) & (shifted_c % stride_c == 0) & (out_r >= 0) & (out_r < out_rows)
                      & (out_c >= 0) & (out_c < out_cols))
             target = torch.where(valid, (image * out_rows + out_r) * out_cols + out_c, 0)

@@ -44,10 +44,10 @@ class BatchTargets:
     box_mask: torch.Tensor  # (n, K) bool
     direction: torch.Tensor  # (n,) int64
 
-    def to(self, device: torch.device, non_blocking: bool = False) -> "BatchTargets":
+    def to(self, device: torch.device, non_blocking: bool = False) -> BatchTargets:
         return BatchTargets(*(t.to(device, non_blocking=non_blocking) for t in self._tensors()))
 
-    def pin_memory(self) -> "BatchTargets":
+    def pin_memory(self) -> BatchTargets:
         return BatchTargets(*(t.pin_memory() for t in self._tensors()))
 
     def _tensors(self) -> tuple[torch.Tensor, ...]:
@@ -63,7 +63,7 @@ class AnchorTargetAssigner:
         self.dir_offset_rad = head.dir_offset_rad
         self.boxes = head.tracklet_boxes
         reach_m = 0.5 * (math.hypot(*head.anchor.size_m[:2]) + OBJECT_SPAN_M)
-        self._window = int(math.ceil(reach_m / grid.cell_m))
+        self._window = math.ceil(reach_m / grid.cell_m)
 
     def _candidates(self, centres_m: NDArray[np.float32]) -> NDArray[np.int64]:
         """Unique anchor indices in the cells round the given BEV centres (G, 2)."""
@@ -82,7 +82,9 @@ class AnchorTargetAssigner:
         labels = np.zeros(len(anchors), np.int8)
         if len(boxes) == 0:
             none = np.zeros(0, np.int64)
-            return Targets(labels, none, np.zeros((0, self.boxes, 7), np.float32), np.zeros((0, self.boxes), bool), none)
+            return Targets(
+                labels, none, np.zeros((0, self.boxes, 7), np.float32), np.zeros((0, self.boxes), bool), none
+            )
         current = boxes[:, -1]
         candidates = self._candidates(current[:, :2])
         iou = bev_iou(anchors[candidates], current)  # (M, G)

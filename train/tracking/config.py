@@ -47,7 +47,7 @@ class AssociationConfig(_Strict):
     weights: tuple[Share, Share] = (0.4, 0.6)  # tracklet_diou: of the DIoU at t-2 and at t-1, summing to 1
 
     @model_validator(mode="after")
-    def _sum(self) -> "AssociationConfig":
+    def _sum(self) -> AssociationConfig:
         if abs(sum(self.weights) - 1.0) > 1e-6:
             raise ValueError(f"'association.weights': {self.weights[0]:g} + {self.weights[1]:g} is not 1")
         return self
@@ -56,7 +56,8 @@ class AssociationConfig(_Strict):
 class LifeCycleConfig(_Strict):
     birth_death: bool  # off (tracklet_diou only): every tracklet output at once, a miss ends a track
     min_hits: int = Field(3, ge=1, le=MAX_TRACK_FRAMES)  # matches before a new track is output
-    max_misses: int = Field(6, ge=0, le=MAX_TRACK_FRAMES)  # consecutive misses a confirmed track survives (dying frames)
+    # consecutive misses a confirmed track survives (dying frames)
+    max_misses: int = Field(6, ge=0, le=MAX_TRACK_FRAMES)
     backfill: bool = False  # tracklet_diou: a confirmed track's first frames output from its tracklet
     output_dying: bool = True  # tracklet_diou: dying tracks output at their predicted box
 
@@ -69,7 +70,7 @@ class TrackerConfig(_Strict):
     split: bool  # the paper's split of fused tracklets (tracklet_diou only)
 
     @model_validator(mode="after")
-    def _modules(self) -> "TrackerConfig":
+    def _modules(self) -> TrackerConfig:
         if self.association.method == "iou_3d":
             for field, value in (("split", self.split), ("life_cycle.backfill", self.life_cycle.backfill)):
                 if value:
