@@ -116,7 +116,9 @@ def fit(t_s: NDArray, dirs: NDArray, template: RisleyParams = FITTED["mid40"], l
     start = rounds < rounds[0] + START_WINDOW_S
     lasers = np.zeros(2 * template.lasers)
     best, best_cost = None, np.inf
-    for order, flips in itertools.product(itertools.permutations(lines), itertools.product((0, 180), repeat=layout.prisms)):
+    for order, flips in itertools.product(
+        itertools.permutations(lines), itertools.product((0, 180), repeat=layout.prisms)
+    ):
         wedges = [_wedge_deg(amp) for _, amp, _ in order]
         rpms = [60.0 * hz for hz, _, _ in order]
         phases = [np.degrees(ph) + flip for (_, _, ph), flip in zip(order, flips)]
@@ -135,7 +137,12 @@ def fit(t_s: NDArray, dirs: NDArray, template: RisleyParams = FITTED["mid40"], l
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m scan_patterns.fit_risley", description=__doc__.split("\n")[0])
-    parser.add_argument("--optics", default="mid40", choices=sorted(FITTED), help="the table, and the stored model whose layout is fitted")
+    parser.add_argument(
+        "--optics",
+        default="mid40",
+        choices=sorted(FITTED),
+        help="the table, and the stored model whose layout is fitted",
+    )
     parser.add_argument("--stride", type=int, default=1, help="fit every stride-th shot (default: all)")
     args = parser.parse_args(argv)
     pattern = load_pattern_file(args.optics)
@@ -153,7 +160,10 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  lasers_deg = ({', '.join(f'({a:.7f}, {e:.7f})' for a, e in p.lasers_deg)})")
     print(f"  error: max {result.max_error_deg:.2e} deg, rms {result.rms_error_deg:.2e} deg")
     error = angle_between_deg(directions_exact(stored, round_times(pattern.t_s, line, rate), line), pattern.dirs)
-    print(f"stored risley.FITTED[{args.optics!r}] on all {len(error)} shots: max {error.max():.2e} deg, rms {np.sqrt(np.mean(error**2)):.2e} deg")
+    print(
+        f"stored risley.FITTED[{args.optics!r}] on all {len(error)} shots: max {error.max():.2e} deg, rms "
+        f"{np.sqrt(np.mean(error**2)):.2e} deg"
+    )
     return 0
 
 

@@ -17,14 +17,12 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
-
 from scipy.optimize import least_squares
 
 from scan_patterns import rotors
 from scan_patterns.replay import load_pattern_file
 from scan_patterns.shots import angle_between_deg, angles_from_dirs, dirs_from_angles
 from scan_patterns.timebase import cycles
-
 
 REFINE_SHOTS = 20_000  # laser 0's shots, evenly spread over the table, that score a pair of rates
 
@@ -41,7 +39,9 @@ def _peak_hz(t_s: NDArray, signal: NDArray) -> float:
 def _basis(theta1: NDArray, delta: NDArray, orders: int, terms: int) -> NDArray:
     """(N, orders * terms) complex exp(i (m theta1 + k delta)), m in 0..orders-1, k in -K..K."""
     m, k = np.arange(orders), np.arange(terms) - terms // 2
-    return (np.exp(1j * np.outer(theta1, m))[:, :, None] * np.exp(1j * np.outer(delta, k))[:, None, :]).reshape(len(theta1), -1)
+    return (np.exp(1j * np.outer(theta1, m))[:, :, None] * np.exp(1j * np.outer(delta, k))[:, None, :]).reshape(
+        len(theta1), -1
+    )
 
 
 def _real_fit(theta1: NDArray, delta: NDArray, ys: tuple[NDArray, ...], orders: int, terms: int) -> list[NDArray]:
@@ -60,7 +60,9 @@ def _real_fit(theta1: NDArray, delta: NDArray, ys: tuple[NDArray, ...], orders: 
     return [(x[:half] + 1j * x[half:]).reshape(orders, terms) for x in solution]
 
 
-def _map_residuals(rates: NDArray, t_s: NDArray, azimuth: NDArray, elevation: NDArray, orders: int, terms: int) -> NDArray:
+def _map_residuals(
+    rates: NDArray, t_s: NDArray, azimuth: NDArray, elevation: NDArray, orders: int, terms: int
+) -> NDArray:
     """Elevation and azimuth residuals (rad) of the best map for rates (f1, f2) Hz."""
     theta1, delta = cycles(t_s, rates[0]), cycles(t_s, rates[1])
     swing = _swing(azimuth, theta1)
@@ -92,7 +94,7 @@ def fit(t_s: NDArray, dirs: NDArray, line: NDArray, orders: tuple[int, int]) -> 
     first = line == 0
     f2 = _peak_hz(t_s[first], elevation[first])
     dt = float(np.median(np.diff(t_s[first])))
-    period = int(round(1.0 / f2 / dt))  # laser 0's shots in one turn of delta
+    period = round(1.0 / f2 / dt)  # laser 0's shots in one turn of delta
     turn = np.unwrap(azimuth[first])
     f1 = float((turn[period:] - turn[:-period]).mean() / (2 * np.pi * period * dt))
     M, K = orders
@@ -102,14 +104,18 @@ def fit(t_s: NDArray, dirs: NDArray, line: NDArray, orders: tuple[int, int]) -> 
     for laser in range(lasers):
         mine = line == laser
         theta1, delta = cycles(t_s[mine], f1), cycles(t_s[mine], f2)
-        coefficients[:, laser] = _real_fit(theta1, delta, (elevation[mine], _swing(azimuth[mine], theta1)), M + 1, 2 * K + 1)
+        coefficients[:, laser] = _real_fit(
+            theta1, delta, (elevation[mine], _swing(azimuth[mine], theta1)), M + 1, 2 * K + 1
+        )
     return rotors.RotorFit((f1, f2), coefficients[0], coefficients[1])
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m scan_patterns.fit_rotors", description=__doc__.split("\n")[0])
     parser.add_argument("--table", default="mid360", help="official table name (default mid360)")
-    parser.add_argument("--orders", type=int, nargs=2, default=(3, 12), metavar=("M", "K"), help="harmonics of theta1, delta")
+    parser.add_argument(
+        "--orders", type=int, nargs=2, default=(3, 12), metavar=("M", "K"), help="harmonics of theta1, delta"
+    )
     parser.add_argument("-o", "--out", type=Path, default=rotors.REFERENCE, help="folder of <table>_rotors.npz")
     args = parser.parse_args(argv)
     pattern = load_pattern_file(args.table)
@@ -117,7 +123,10 @@ def main(argv: list[str] | None = None) -> int:
     result = fit(pattern.t_s, pattern.dirs, line, tuple(args.orders))
     azimuth, elevation = rotors.angles(result, pattern.t_s, line)
     error = angle_between_deg(dirs_from_angles(azimuth, elevation), pattern.dirs)
-    print(f"fitted to {pattern.name}: {len(line)} shots, f1 = {result.rates_hz[0]:.6f} Hz, f2 = {result.rates_hz[1]:.6f} Hz")
+    print(
+        f"fitted to {pattern.name}: {len(line)} shots, f1 = {result.rates_hz[0]:.6f} Hz, f2 = {result.rates_hz[1]:.6f} "
+        f"Hz"
+    )
     print(f"  error: max {error.max():.2e} deg, rms {np.sqrt(np.mean(error**2)):.2e} deg")
     args.out.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(args.out / f"{args.table}_rotors.npz", rates_hz=np.array(result.rates_hz),

@@ -58,7 +58,8 @@ class RisleyParams:
         except (TypeError, ValueError):
             lasers = ()
         if not 1 <= len(lasers) <= 255 or any(max(map(abs, laser)) >= 30 for laser in lasers):
-            raise ValueError("risley: lasers_deg holds 1 to 255 (azimuth, elevation) pairs within 30 degrees of the boresight")
+            raise ValueError("risley: lasers_deg holds 1 to 255 (azimuth, elevation) pairs within 30 degrees of the "
+                             "boresight")
         object.__setattr__(self, "lasers_deg", lasers)
 
     @property
@@ -82,12 +83,14 @@ MID40 = RisleyParams(wedge_deg=(18.0, 18.0), index=1.5089, rpm=(-7294.0, 4664.0)
 # wedged faces outwards in a glass of index 1.8144; the prisms stand at 180 and 0 deg at the first shot.
 AVIA = RisleyParams(wedge_deg=(18.0, 18.0), index=1.8144, rpm=(-7893.0, 2448.0), phase_deg=(180.197325, -0.0612),
                     wedged_first=(True, False),
-                    lasers_deg=((0.0, -2.242938), (0.0, -1.346203), (0.0, -0.448808), (0.0, 0.448808), (0.0, 1.346203), (0.0, 2.242938)))
+                    lasers_deg=((0.0, -2.242938), (0.0, -1.346203), (0.0, -0.448808),
+                                (0.0, 0.448808), (0.0, 1.346203), (0.0, 2.242938)))
 # Tele-15: the Avia's layout with thin wedges of the Mid-40's glass and a narrower row of lasers
 # (tangents 0.1584 deg x 1, 3, 5); the prisms stand at 180 and 0 deg five shots before t = 0.
 TELE15 = RisleyParams(wedge_deg=(7.1, 7.1), index=1.5089, rpm=(-9837.0, 3087.0), phase_deg=(178.770375, 0.385875),
                       wedged_first=(True, False),
-                      lasers_deg=((0.0, -0.791979), (0.0, -0.475207), (0.0, -0.158406), (0.0, 0.158406), (0.0, 0.475207), (0.0, 0.791979)))
+                      lasers_deg=((0.0, -0.791979), (0.0, -0.475207), (0.0, -0.158406),
+                                  (0.0, 0.158406), (0.0, 0.475207), (0.0, 0.791979)))
 # Horizon: two prisms of one glass turning at +-7352 rpm draw a horizontal line, a third of another
 # glass at 619 rpm moves it about; the Avia's six lasers; every prism at 180 or 0 deg five shots before t = 0.
 HORIZON = RisleyParams(wedge_deg=(20.0, 20.0, 17.5), index=(1.6106, 1.6106, 1.5799), rpm=(7352.0, -7352.0, 619.0),
@@ -122,7 +125,8 @@ def trace(params: RisleyParams, cos_theta, sin_theta, beams):
     """Exit directions (x, y, z) of beams (x, y, z) through the prisms at angles given by their cosines
     and sines (one array per prism): the float64 reference, Snell's law at every face."""
     s = beams
-    for alpha, n, wedged_first, c, si in zip(np.radians(params.wedge_deg), params.indices, params.wedged_first, cos_theta, sin_theta):
+    prisms = zip(np.radians(params.wedge_deg), params.indices, params.wedged_first, cos_theta, sin_theta, strict=True)
+    for alpha, n, wedged_first, c, si in prisms:
         wedge = (np.cos(alpha), np.sin(alpha) * c, np.sin(alpha) * si)
         flat = (1.0, 0.0, 0.0)
         for face, eta in zip((wedge, flat) if wedged_first else (flat, wedge), (1.0 / n, n)):
@@ -141,7 +145,9 @@ def round_times(t_s: NDArray[np.float64], line: NDArray, rate_hz: float) -> NDAr
     return np.asarray(t_s, np.float64) - np.asarray(line, np.float64) / rate_hz
 
 
-def directions_exact(params: RisleyParams, t_s: NDArray[np.float64], line: NDArray | None = None) -> NDArray[np.float64]:
+def directions_exact(
+    params: RisleyParams, t_s: NDArray[np.float64], line: NDArray | None = None
+) -> NDArray[np.float64]:
     """(N, 3) float64 unit directions, head frame, of lasers `line` (default 0) with the prisms at
     times `t_s` (for several lasers: `round_times`): the reference for fitting and tests."""
     t_s = np.asarray(t_s, np.float64)
@@ -165,7 +171,8 @@ def directions(
     t_s = np.ascontiguousarray(t_s, np.float64)
     out = np.empty((len(t_s), 3), np.float32)
     alpha = np.radians(np.asarray(params.wedge_deg, np.float64))
-    optics = (np.cos(alpha), np.sin(alpha), np.asarray(params.indices, np.float64), np.asarray(params.wedged_first, np.bool_))
+    indices, wedged_first = np.asarray(params.indices, np.float64), np.asarray(params.wedged_first, np.bool_)
+    optics = (np.cos(alpha), np.sin(alpha), indices, wedged_first)
     turns = np.array([(rpm / 60.0, phase / 360.0) for rpm, phase in zip(params.rpm, params.phase_deg)], np.float64)
     beams = np.ascontiguousarray(laser_dirs(params))
     from scan_patterns import risley_kernels  # numba, compiled on first use: importing the presets needs neither

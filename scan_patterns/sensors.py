@@ -56,7 +56,8 @@ class HeadSpec:
         if self.fov_box_deg is not None:
             box = tuple(float(v) for v in self.fov_box_deg)
             if len(box) != 4 or not (-180 <= box[0] < box[1] <= 180 and -90 <= box[2] < box[3] <= 90):
-                raise ValueError(f"fov_box_deg must be (azimuth min < max within +-180, elevation min < max within +-90), got {self.fov_box_deg}")
+                raise ValueError("fov_box_deg must be (azimuth min < max within +-180, elevation min < max within "
+                                 f"+-90), got {self.fov_box_deg}")
             object.__setattr__(self, "fov_box_deg", box)
         if isinstance(self.lasers, bool) or not isinstance(self.lasers, int) or not 1 <= self.lasers <= 255:
             raise ValueError(f"lasers must be a whole number in 1..255, got {self.lasers}")
@@ -98,7 +99,8 @@ class HeadSpec:
         params = {k: tuple(v) if isinstance(v, list) else v for k, v in self.params.items()}
         if self.pattern == "replay":
             if set(params) != {"file"}:
-                raise ValueError(f"replay takes one parameter, 'file' (an official name: {', '.join(OFFICIAL_FILES)}; or a path); got {sorted(params)}")
+                raise ValueError(f"replay takes one parameter, 'file' (an official name: {', '.join(OFFICIAL_FILES)}; "
+                                 f"or a path); got {sorted(params)}")
             return str(params["file"])
         if self.pattern == "risley":
             optics = params.pop("optics", "mid40")
@@ -233,7 +235,8 @@ OFFICIAL_HEADS = {
 def _fitted_head(name: str, pattern: str = "risley") -> HeadSpec:
     """The head of official table `name` drawn by the model fitted to it: `risley.FITTED[name]`, or
     the `rotors` fit of the table."""
-    return dataclasses.replace(OFFICIAL_HEADS[name], pattern=pattern, params={"optics" if pattern == "risley" else "fit": name})
+    params = {"optics" if pattern == "risley" else "fit": name}
+    return dataclasses.replace(OFFICIAL_HEADS[name], pattern=pattern, params=params)
 
 
 def official_table(head: HeadSpec) -> str | None:
@@ -251,17 +254,27 @@ for _spec in (
     SensorSpec("mid40-risley", (HeadSpec("risley"),), "Mid-40, Risley prisms fitted to Livox's file, never loops"),
     SensorSpec("mid40-rose", (HeadSpec("rose"),), "Mid-40 field of view, the paper's polar rose"),
     SensorSpec("mid40-replay", (OFFICIAL_HEADS["mid40"],), "Livox's Mid-40 file, looped every 4 s"),
-    SensorSpec("mid70-risley", (_fitted_head("mid70"),), "Mid-70, Risley prisms fitted to Livox's file (70.4 deg), never loops"),
+    SensorSpec("mid70-risley", (_fitted_head("mid70"),),
+               "Mid-70, Risley prisms fitted to Livox's file (70.4 deg), never loops"),
     SensorSpec("mid70-replay", (OFFICIAL_HEADS["mid70"],), "Livox's Mid-70 file (70.4 deg), looped every 4 s"),
-    SensorSpec("avia-risley", (_fitted_head("avia"),), "Avia: 6 lasers through Risley prisms fitted to Livox's table, never loops"),
-    SensorSpec("avia-replay", (OFFICIAL_HEADS["avia"],), "Livox's Avia table: 6 lasers, 240,000 shots/s, 70.4 x 77.2 deg"),
-    SensorSpec("horizon-risley", (_fitted_head("horizon"),), "Horizon: 6 lasers through three Risley prisms fitted to Livox's table, never loops"),
-    SensorSpec("horizon-replay", (OFFICIAL_HEADS["horizon"],), "Livox's Horizon table: 6 lasers, 240,000 shots/s, 81.7 x 25.1 deg"),
-    SensorSpec("tele15-risley", (_fitted_head("tele"),), "Tele-15: 6 lasers through Risley prisms fitted to Livox's table, never loops"),
-    SensorSpec("tele15-replay", (OFFICIAL_HEADS["tele"],), "Livox's Tele-15 table: 6 lasers, 240,000 shots/s, 14.5 x 16.1 deg"),
-    SensorSpec("hap-replay", (OFFICIAL_HEADS["hap"],), "Livox's HAP table: 6 lasers, 452,000 shots/s, 120 x 25 deg, 2.32 s"),
-    SensorSpec("mid360-rotors", (_fitted_head("mid360", "rotors"),), "Mid-360: 4 lasers, two rotors and a map fitted to Livox's table, never loops"),
-    SensorSpec("mid360-replay", (OFFICIAL_HEADS["mid360"],), "Livox's Mid-360 table: 4 lasers, 200,000 shots/s, 360 x 59 deg"),
+    SensorSpec("avia-risley", (_fitted_head("avia"),),
+               "Avia: 6 lasers through Risley prisms fitted to Livox's table, never loops"),
+    SensorSpec("avia-replay", (OFFICIAL_HEADS["avia"],),
+               "Livox's Avia table: 6 lasers, 240,000 shots/s, 70.4 x 77.2 deg"),
+    SensorSpec("horizon-risley", (_fitted_head("horizon"),),
+               "Horizon: 6 lasers through three Risley prisms fitted to Livox's table, never loops"),
+    SensorSpec("horizon-replay", (OFFICIAL_HEADS["horizon"],),
+               "Livox's Horizon table: 6 lasers, 240,000 shots/s, 81.7 x 25.1 deg"),
+    SensorSpec("tele15-risley", (_fitted_head("tele"),),
+               "Tele-15: 6 lasers through Risley prisms fitted to Livox's table, never loops"),
+    SensorSpec("tele15-replay", (OFFICIAL_HEADS["tele"],),
+               "Livox's Tele-15 table: 6 lasers, 240,000 shots/s, 14.5 x 16.1 deg"),
+    SensorSpec("hap-replay", (OFFICIAL_HEADS["hap"],),
+               "Livox's HAP table: 6 lasers, 452,000 shots/s, 120 x 25 deg, 2.32 s"),
+    SensorSpec("mid360-rotors", (_fitted_head("mid360", "rotors"),),
+               "Mid-360: 4 lasers, two rotors and a map fitted to Livox's table, never loops"),
+    SensorSpec("mid360-replay", (OFFICIAL_HEADS["mid360"],),
+               "Livox's Mid-360 table: 4 lasers, 200,000 shots/s, 360 x 59 deg"),
     SensorSpec("mid100-risley", _mid100("risley"), "Mid-100: three Risley Mid-40 heads yawed -30, 0, +30 deg"),
     SensorSpec("mid100-rose", _mid100("rose"), "Mid-100 layout with the paper's rose in each head"),
 ):

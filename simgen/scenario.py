@@ -235,7 +235,12 @@ class ReplayParamsConfig(_Strict):
         return str(resolved)
 
 
-_PARAMS = {"risley": RisleyParamsConfig, "rose": RoseParamsConfig, "replay": ReplayParamsConfig, "rotors": RotorsParamsConfig}
+_PARAMS = {
+    "risley": RisleyParamsConfig,
+    "rose": RoseParamsConfig,
+    "replay": ReplayParamsConfig,
+    "rotors": RotorsParamsConfig,
+}
 
 
 class HeadConfig(_Strict):
@@ -243,7 +248,9 @@ class HeadConfig(_Strict):
 
     like: str | None = Field(None, max_length=64, description="Sensor preset whose first head this one starts from.")
     pattern: Literal["risley", "rose", "replay", "rotors"] | None = None
-    params: dict[str, object] | None = Field(None, description="The pattern's parameters (Risley, rose, replay or rotors).")
+    params: dict[str, object] | None = Field(
+        None, description="The pattern's parameters (Risley, rose, replay or rotors)."
+    )
     shots_per_s: float | None = Field(None, gt=0, le=MAX_SHOTS_PER_S, description="Shots per second at density x1.")
     fov_deg: float | None = Field(None, gt=0, lt=180, description="Full cone angle of the circular field of view.")
     yaw_deg: float | None = Field(None, ge=-360, le=360)

@@ -30,13 +30,16 @@ def test_every_shot_within_3e_5_degrees_of_the_table_with_its_laser(pair):
     np.testing.assert_allclose(model.t_s, reference.t_s, rtol=0, atol=1e-9)
     np.testing.assert_array_equal(model.line, reference.line)
     error_deg = angle_between_deg(model.dirs, reference.dirs)
-    print(f"{PRESETS[name]} vs the shipped {name} table, {len(model):,} shots: max {error_deg.max():.2e} deg, rms {np.sqrt(np.mean(error_deg**2)):.2e} deg")
+    print(
+        f"{PRESETS[name]} vs the shipped {name} table, {len(model):,} shots: max {error_deg.max():.2e} deg, rms "
+        f"{np.sqrt(np.mean(error_deg**2)):.2e} deg"
+    )
     assert error_deg.max() < 3e-5  # the float32 copy's precision, about 1e-5 deg
 
 
 @pytest.mark.parametrize("cell_deg", sp.CELL_SIZES_DEG)
 def test_coverage_within_half_a_point_of_the_table(pair, cell_deg):
-    name, head, model, reference = pair
+    _, head, model, reference = pair
     mine = sp.coverage_curve(model, head.field_of_view, COVERAGE_TIMES_S, cell_deg)
     theirs = sp.coverage_curve(reference, head.field_of_view, COVERAGE_TIMES_S, cell_deg)
     assert np.all(np.abs(mine - theirs) <= 0.005)
@@ -44,7 +47,7 @@ def test_coverage_within_half_a_point_of_the_table(pair, cell_deg):
 
 def test_fast_generator_agrees_with_the_float64_reference_far_from_t0(pair):
     """Round by round on the shot clock (one prism position per round of lasers), 1000 s on."""
-    name, head, _, _ = pair
+    _, head, _, _ = pair
     params = head.model
     shots = sp.head_shots(head, 1000.0, 1000.02)
     rounds = risley.round_times(shots.t_s, shots.line, head.shots_per_s)
@@ -58,7 +61,10 @@ def _fit_returns_the_stored_optics(name: str, stride: int, rate_hz: float) -> No
     take = slice(None, None, stride)
     result = fit_risley.fit(reference.t_s[take], reference.dirs[take], stored, reference.line[take], rate_hz)
     p = result.params
-    print(f"{name}: fit on {len(reference.t_s[take])} shots, max {result.max_error_deg:.2e} deg, rms {result.rms_error_deg:.2e} deg")
+    print(
+        f"{name}: fit on {len(reference.t_s[take])} shots, max {result.max_error_deg:.2e} deg, rms "
+        f"{result.rms_error_deg:.2e} deg"
+    )
     assert result.max_error_deg < 3e-5
     np.testing.assert_allclose(p.wedge_deg, stored.wedge_deg, atol=1e-3)
     np.testing.assert_allclose(p.indices, stored.indices, atol=1e-4)

@@ -8,8 +8,24 @@ import pytest
 import scan_patterns as sp
 from scan_patterns.shots import dirs_from_livox, head_rotation, livox_angles
 
-PRESETS = ["mid40-risley", "mid40-rose", "mid40-replay", "mid70-replay", "mid100-risley", "mid100-rose",
-           "avia-replay", "horizon-replay", "tele15-replay", "hap-replay", "mid360-replay", "avia-risley", "tele15-risley", "horizon-risley", "mid70-risley", "mid360-rotors"]
+PRESETS = [
+    "mid40-risley",
+    "mid40-rose",
+    "mid40-replay",
+    "mid70-replay",
+    "mid100-risley",
+    "mid100-rose",
+    "avia-replay",
+    "horizon-replay",
+    "tele15-replay",
+    "hap-replay",
+    "mid360-replay",
+    "avia-risley",
+    "tele15-risley",
+    "horizon-risley",
+    "mid70-risley",
+    "mid360-rotors",
+]
 
 
 def test_the_issue_presets_are_registered():

@@ -112,7 +112,12 @@ def test_custom_heads_from_the_fitted_models():
     assert tele.model == sp.get_sensor("tele15-risley").heads[0].model and sp.official_table(tele) == "tele"
     assert avia.yaw_deg == 30 and avia.model.lasers == 6 and mid360.pattern == "rotors"
     with pytest.raises(UserError, match="params of a risley head: 'optics': Input should be 'mid40'"):
-        parse_scenario({"name": "x", "custom_sensors": [{"name": "m", "heads": [{"pattern": "risley", "params": {"optics": "hap"}}]}]})
+        parse_scenario(
+            {
+                "name": "x",
+                "custom_sensors": [{"name": "m", "heads": [{"pattern": "risley", "params": {"optics": "hap"}}]}],
+            }
+        )
 
 
 def test_malformed_yaml_is_one_line(tmp_path):
