@@ -23,14 +23,13 @@ from simgen.errors import UserError
 from simgen.scenario import Scenario, load_scenario
 from train.checkpoint import load_checkpoint
 from train.config import MAX_ITERATIONS, MAX_SEED, MAX_WORKERS, DetectorConfig, load_config, parse_config
-from train.evaluate import EVAL_BATCH, detect, evaluate, format_ap_table, write_ap_csv
+from train.evaluate import detect, evaluate, format_ap_table, write_ap_csv
 from train.fit import CHECKPOINT_NAME, fit
 from train.models.detector import Detector
 from train.preflight import (
     check_memory,
     check_resume,
     check_workers,
-    cpu_cores,
     dataset_points_per_frame,
     parse_seeds,
     scenario_points_per_frame,
@@ -103,13 +102,10 @@ def _split(name: str) -> str | None:
 
 
 def _model(checkpoint_path: str, dataset: simgen.datasets.Dataset, device: torch.device) -> tuple[Detector, DetectorConfig, int]:
-    """The checkpoint's detector, once its inference is known to fit the device; loader processes at most the cores
-    (they do not change the results)."""
+    """The checkpoint's detector, once its inference (one window at a time, train.streaming) is known to fit the device."""
     checkpoint = load_checkpoint(checkpoint_path)
     config = checkpoint.config
-    if config.train.workers > cpu_cores():
-        config = config.model_copy(update={"train": config.train.model_copy(update={"workers": cpu_cores()})})
-    check_memory(config, dataset_points_per_frame(dataset), device, training=False, batch=EVAL_BATCH)
+    check_memory(config, dataset_points_per_frame(dataset), device, training=False, batch=1)
     model = Detector(config)
     try:
         model.load_state_dict(checkpoint.model)
