@@ -12,16 +12,17 @@ the CPU studies run two fits side by side on two cores).
 - step breakdown (this tree): the same loop in this process, each phase timed: waiting for the
   loader, forward, backward (with the loss), optimiser (on CUDA, synchronised at each phase for the
   breakdown only).
-- val pass: `simgen-train eval` of each tree's checkpoint on paper_x1's 203 val frames, CPU seconds
-  of the child (inference, AP on all and visible boxes at t, t-1 and t-2, tables written); and, in
-  this process, the AP part alone on this tree's detections.
+- val pass: each tree's `predict` (inference, loading included) and AP (visible boxes found, AP on all
+  and visible boxes at t, t-1 and t-2) on paper_x1's 203 val frames with its own checkpoint, in a
+  child process (imports and checkpoint loading not counted): CPU seconds of the child and its loader
+  processes, one torch thread (CPU seconds hold under load; on a shared machine two OpenMP threads
+  waiting on each other measure the load, not the code).
 - paper-size configs (train/configs/paper/): samples/s of a few iterations of this tree, on CPU,
   and on CUDA when present.
 
 Writes benchmarks/results/train.md.
 
-Usage: .venv/bin/python benchmarks/bench_train.py [--baseline d2bfbe4] [--iterations 40] [--rounds 2]
-[--paper-iterations 3]
+Usage: .venv/bin/python benchmarks/bench_train.py [--baseline d2bfbe4] [--iterations 40] [--rounds 2] [--paper-iterations 3]
 """
 
 from __future__ import annotations
@@ -30,31 +31,30 @@ import os
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import argparse
-import csv
-import io
-import resource
-import statistics
-import subprocess
-import sys
-import tarfile
-import tempfile
-import time
-from pathlib import Path
+import argparse  # noqa: E402
+import csv  # noqa: E402
+import io  # noqa: E402
+import statistics  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tarfile  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+from pathlib import Path  # noqa: E402
 
-import torch
-import yaml
-from table import machine, markdown_table, write_results
+import torch  # noqa: E402
+import yaml  # noqa: E402
+from table import machine, markdown_table, write_results  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from train.config import parse_config
-from train.data import SampleSet, loader
-from train.evaluate import average_precisions, predict, visible_objects
-from train.fit import autocast
-from train.losses import detection_loss
-from train.models.detector import build_detector
+from train.config import parse_config  # noqa: E402
+from train.data import SampleSet, loader  # noqa: E402
+from train.fit import autocast  # noqa: E402
+from train.losses import detection_loss  # noqa: E402
+from train.models.detector import build_detector  # noqa: E402
 
 PACKAGES = ("simgen", "train", "scan_patterns")
 
@@ -68,13 +68,10 @@ def unpack(revision: str, folder: Path) -> Path:
     return folder
 
 
-def child(tree: Path, *arguments: str) -> float:
-    """`python -m ARGUMENTS` with `tree`'s packages; the CPU seconds it and its children took."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+def child(tree: Path, *arguments: str) -> None:
+    """`python -m ARGUMENTS` with `tree`'s packages, one torch thread."""
     env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
     subprocess.run([sys.executable, "-m", *arguments], cwd=tree, env=env, check=True, capture_output=True)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
 
 
 def compact_late(tree: Path, iterations: int, out: Path) -> Path:
@@ -97,9 +94,7 @@ def step_breakdown(config_path: Path, dataset: Path, steps: int, device: torch.d
     """Mean seconds per step of each phase, after two warm-up steps."""
     config = parse_config(yaml.safe_load(config_path.read_text()))
     model = build_detector(config).to(device).train()
-    samples = SampleSet(
-        str(dataset), "train", config, draws=(steps + 2) * config.train.batch_size, assign=model.head.assigner
-    )
+    samples = SampleSet(str(dataset), "train", config, draws=(steps + 2) * config.train.batch_size, assign=model.head.assigner)
     optimizer = torch.optim.AdamW(model.parameters(), lr=config.train.lr)
     batches = loader(samples, config.train.batch_size, 1, model.head.assigner.collate, pin_memory=device.type == "cuda")
     phases = {"waiting for data": 0.0, "forward": 0.0, "backward": 0.0, "optimiser": 0.0}
@@ -129,23 +124,47 @@ def step_breakdown(config_path: Path, dataset: Path, steps: int, device: torch.d
     return phases
 
 
-def ap_seconds(checkpoint: Path, dataset: Path) -> tuple[float, float, int, float]:
-    """This tree's val pass in this process: inference CPU s, AP CPU s, val frames, detections per frame."""
-    from train.checkpoint import load_checkpoint
+VAL_PASS = """
+import resource, sys, time
+import torch
+import simgen.datasets
+from train.checkpoint import load_checkpoint
+from train.evaluate import average_precisions, predict, visible_objects
+from train.models.detector import build_detector
 
-    saved = load_checkpoint(checkpoint)
-    model = build_detector(saved.config)
-    model.load_state_dict(saved.model)
-    started = time.process_time()
-    results = list(predict(model, saved.config, str(dataset), "val", torch.device("cpu"), progress=False))
-    inferred = time.process_time()
-    import simgen.datasets
+def cpu():
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
-    visible = visible_objects(simgen.datasets.open(dataset), [s for s, _ in results])
-    average_precisions(results, visible)
-    done = time.process_time()
-    detections = sum(len(d.scores) for _, d in results) / max(len(results), 1)
-    return inferred - started, done - inferred, len(results), detections
+saved = load_checkpoint(sys.argv[1])
+model = build_detector(saved.config)
+model.load_state_dict(saved.model)
+start, wall = cpu(), time.perf_counter()
+results = list(predict(model, saved.config, sys.argv[2], "val", torch.device("cpu"), progress=False))
+inferred = cpu()
+average_precisions(results, visible_objects(simgen.datasets.open(sys.argv[2]), [s for s, _ in results]))
+print(inferred - start, cpu() - inferred, time.perf_counter() - wall, len(results), sum(len(d.scores) for _, d in results))
+"""
+
+
+@dataclass(frozen=True)
+class ValPass:
+    """One val pass: CPU seconds of inference (loading included) and of AP, wall seconds of both, frames, detections."""
+
+    inference_s: float
+    ap_s: float
+    wall_s: float
+    frames: int
+    detections: int
+
+
+def val_pass(tree: Path, checkpoint: Path, dataset: Path) -> ValPass:
+    """`tree`'s predict and AP on the val clips in a child process, one torch thread."""
+    env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
+    done = subprocess.run([sys.executable, "-c", VAL_PASS, str(checkpoint), str(dataset)], cwd=tree, env=env, check=True,
+                          capture_output=True, text=True)
+    inference, ap, wall, frames, detections = done.stdout.split()
+    return ValPass(float(inference), float(ap), float(wall), int(frames), int(detections))
 
 
 def paper_rate(name: str, dataset: Path, iterations: int, device: torch.device) -> float:
@@ -156,9 +175,7 @@ def paper_rate(name: str, dataset: Path, iterations: int, device: torch.device) 
         raw["train"]["batch_size"] = 2
     config = parse_config(raw)
     model = build_detector(config).to(device).train()
-    samples = SampleSet(
-        str(dataset), "train", config, draws=(iterations + 1) * config.train.batch_size, assign=model.head.assigner
-    )
+    samples = SampleSet(str(dataset), "train", config, draws=(iterations + 1) * config.train.batch_size, assign=model.head.assigner)
     optimizer = torch.optim.AdamW(model.parameters(), lr=config.train.lr)
     batches = loader(samples, config.train.batch_size, 0, model.head.assigner.collate)
     for step in range(iterations + 1):
@@ -188,7 +205,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="bench_train-") as scratch:
         scratch = Path(scratch)
         trees = {"baseline": unpack(args.baseline, scratch / "baseline"), "this tree": ROOT}
-        data, configs, rates, val = {}, {}, {name: [] for name in trees}, {}
+        data, configs, rates = {}, {}, {name: [] for name in trees}
         for name, tree in trees.items():
             data[name] = scratch / f"paper_x1-{name.replace(' ', '_')}"
             child(tree, "simgen.cli", "generate", str(tree / "scenarios" / "paper_x1.yaml"), "-o", str(data[name]))
@@ -200,48 +217,29 @@ def main() -> None:
                 out = scratch / "runs" / name / f"fit{round_}"
                 rates[name].append(fit_rate(tree, configs[name], data[name], out))
                 print(f"{name}, round {round_}: {rates[name][-1]:.3f} samples/s", flush=True)
-        for name, tree in trees.items():
-            runs = scratch / "runs" / name
-            val[name] = child(
-                tree,
-                "train.cli",
-                "eval",
-                str(runs / "fit0" / "checkpoint.pt"),
-                "--dataset",
-                str(data[name]),
-                "-o",
-                str(runs / "eval"),
-                "--quiet",
-            )
+        checkpoints = {name: scratch / "runs" / name / "fit0" / "checkpoint.pt" for name in trees}
+        val = {name: val_pass(tree, checkpoints[name], data[name]) for name, tree in trees.items()}
         breakdown = {d.type: step_breakdown(configs["this tree"], data["this tree"], 10, d) for d in devices}
-        inference_s, ap_s, frames, per_frame = ap_seconds(
-            scratch / "runs" / "this tree" / "fit0" / "checkpoint.pt", data["this tree"]
-        )
-        paper = {
-            (m, d.type): paper_rate(m, data["this tree"], args.paper_iterations, d)
-            for m in ("single", "late")
-            for d in devices
-        }
+        paper = {(m, d.type): paper_rate(m, data["this tree"], args.paper_iterations, d) for m in ("single", "late") for d in devices}
     median = {name: statistics.median(r) for name, r in rates.items()}
     fit_rows = [[name, args.iterations, " / ".join(f"{r:.3f}" for r in rates[name]), f"{median[name]:.3f}",
                  f"{median[name] / median['baseline']:.2f}"] for name in trees]
-    val_rows = [[name, f"{val[name]:.1f}", f"{val[name] / val['baseline']:.2f}"] for name in trees]
+    total = {name: v.inference_s + v.ap_s for name, v in val.items()}
+    val_rows = [[name, f"{v.inference_s:.2f}", f"{v.ap_s:.2f}", f"{total[name]:.2f}", f"{total[name] / total['baseline']:.3f}",
+                 f"{v.wall_s:.1f}", f"{v.detections / max(v.frames, 1):.0f}"] for name, v in val.items()]
     step_rows = [[phase] + [f"{1000 * breakdown[d.type][phase]:.0f}" for d in devices] for phase in breakdown["cpu"]]
     paper_rows = [[m] + [f"{paper[(m, d.type)]:.2f}" for d in devices] for m in ("single", "late")]
     write_results(
-        "train",
-        "Training speed (benchmarks/bench_train.py)",
+        "train", "Training speed (benchmarks/bench_train.py)",
         machine(torch=torch.__version__) + f" Baseline: revision {args.baseline}, same data, same work, alternating.",
-        f"Compact late `fit` on paper_x1 (batch 2, one loader process, one torch thread), samples/s ({args.rounds} "
-        f"rounds):",
+        f"Compact late `fit` on paper_x1 (batch 2, one loader process, one torch thread), samples/s ({args.rounds} rounds):",
         markdown_table(["tree", "iterations", "each round", "median", "ratio"], fit_rows),
-        "Val pass, `simgen-train eval` of that checkpoint on the 203 val frames (inference, AP of all and visible "
-        "boxes at t, t-1, t-2, files), CPU seconds of the process:",
-        markdown_table(["tree", "CPU s", "ratio"], val_rows),
-        f"This tree's val pass in-process: inference {inference_s:.1f} CPU s, AP {ap_s:.2f} CPU s for {frames} frames "
-        f"({per_frame:.0f} detections per frame).",
-        "A step of this tree by phase, ms (compact late, batch 2; CUDA synchronised at each phase for this table "
-        "only):",
+        f"Val pass on the {val['this tree'].frames} val frames with each tree's checkpoint of the first round: inference "
+        "(loading included) and AP (visible boxes, AP of all and visible boxes at t, t-1, t-2), CPU seconds of a child "
+        "process and its loader processes, one torch thread (imports and checkpoint loading not counted):",
+        markdown_table(["tree", "inference CPU s", "AP CPU s", "val pass CPU s", "ratio", "wall s", "detections per frame"],
+                       val_rows),
+        "A step of this tree by phase, ms (compact late, batch 2; CUDA synchronised at each phase for this table only):",
         markdown_table(["phase"] + [d.type for d in devices], step_rows),
         f"Paper-size configs (train/configs/paper/), samples/s over {args.paper_iterations} steps after one warm-up, "
         "loader in this process; batch 2 on CPU, the configs' 8 on CUDA:",

@@ -74,6 +74,28 @@ def test_nms_keeps_the_best_of_overlapping_boxes():
     assert nms_bev(boxes[:0], scores[:0], 0.2, 10).tolist() == []
 
 
+@pytest.mark.parametrize("threshold", [0.01, 0.2, 0.5])
+def test_nms_decided_by_bounds_equals_greedy_on_every_exact_iou(threshold):
+    """Clusters of candidates as a detector makes them (hundreds around a few players): the kept boxes equal
+    those of the greedy pass over the full exact IoU matrix."""
+    from train.geometry import bev_iou
+
+    rng = np.random.default_rng(7)
+    centres = rng.uniform(-10, 10, (12, 2))
+    n = 300
+    boxes = np.column_stack([centres[rng.integers(0, 12, n)] + rng.normal(0, 0.3, (n, 2)), rng.uniform(0.5, 1.2, n),
+                             rng.uniform(0.5, 1.1, (n, 2)), rng.uniform(1.5, 1.9, n), rng.uniform(-np.pi, np.pi, n)])
+    boxes, scores = boxes.astype(np.float32), rng.uniform(0, 1, n).astype(np.float32)
+    order = np.argsort(-scores, kind="stable")
+    overlaps = bev_iou(boxes[order], boxes[order]) > threshold
+    kept = []
+    for i in range(n):
+        if not any(overlaps[k, i] for k in kept):
+            kept.append(i)
+    assert nms_bev(boxes, scores, threshold, n).tolist() == order[kept].tolist()
+    assert nms_bev(boxes, scores, threshold, 5).tolist() == order[kept[:5]].tolist()
+
+
 def test_configs_load_and_reject_bad_keys(tmp_path):
     for name, fusion in (("single", "none"), ("early", "early"), ("late", "late")):
         config = load_config(f"train/configs/{name}.yaml")

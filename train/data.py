@@ -71,7 +71,7 @@ def _discontinuity(frame: simgen.datasets.Frame) -> NDArray[np.bool_]:
     return np.zeros(len(frame.boxes), bool) if frame.discontinuity is None else frame.discontinuity
 
 
-def load_sample(dataset: simgen.datasets.Dataset, clip: str, index: int, config: DetectorConfig) -> Sample:
+def load_sample(dataset: simgen.datasets.Dataset | RecentFrames, clip: str, index: int, config: DetectorConfig) -> Sample:
     """Read frames t-2..t and match the boxes of the objects at t by track id. Where the engine placed
     an object for a restart within the window (a box's discontinuity flag), its boxes before the
     placement are masked: they belong to another segment of its motion."""
@@ -130,7 +130,14 @@ def augment(sample: Sample, config: AugmentConfig, rng: np.random.Generator) -> 
 def crop(sample: Sample, point_range_m: tuple[float, ...]) -> Sample:
     """Points inside the range (upper bounds excluded) and objects whose centre at t is inside in x, y."""
     low, high = np.asarray(point_range_m[:3], np.float32), np.asarray(point_range_m[3:], np.float32)
-    points = tuple(p[np.all((p[:, :3] >= low) & (p[:, :3] < high), axis=1)] for p in sample.points)
+
+    def inside_range(p: NDArray[np.float32]) -> NDArray[np.bool_]:
+        inside = (p[:, 0] >= low[0]) & (p[:, 0] < high[0])
+        for axis in (1, 2):
+            inside &= (p[:, axis] >= low[axis]) & (p[:, axis] < high[axis])
+        return inside
+
+    points = tuple(p[inside_range(p)] for p in sample.points)
     centre = sample.boxes[:, -1, :2]
     inside = np.all((centre >= low[:2]) & (centre < high[:2]), axis=1)
     return replace(sample, points=points, boxes=sample.boxes[inside], box_mask=sample.box_mask[inside],
@@ -215,6 +222,23 @@ def collate(
     )
 
 
+class RecentFrames:
+    """A dataset read through a memory of the last window's frames: windows taken in clip order (evaluation)
+    read each frame once, not three times."""
+
+    def __init__(self, dataset: simgen.datasets.Dataset) -> None:
+        self.dataset, self.root = dataset, dataset.root
+        self._kept: dict[tuple[str, int], simgen.datasets.Frame] = {}
+
+    def sequence(self, clip: str, index: int, length: int) -> list[simgen.datasets.Frame]:
+        """`Dataset.sequence`: `length` consecutive frames of `clip` ending at `index`, oldest first."""
+        if index - length + 1 < 0:
+            return self.dataset.sequence(clip, index, length)  # its error
+        keys = [(clip, i) for i in range(index - length + 1, index + 1)]
+        self._kept = {key: self._kept[key] if key in self._kept else self.dataset.frame(*key) for key in keys}
+        return list(self._kept.values())
+
+
 class SampleSet(torch.utils.data.Dataset):
     """Encoded samples of a dataset split, in order; with `draws`, a seeded stream of augmented ones.
 
@@ -228,7 +252,7 @@ class SampleSet(torch.utils.data.Dataset):
         self.path, self.config, self.draws, self.assign = path, config, draws, assign
         self.first_draw = first_draw  # a resumed fit's stream starts where the interrupted one stopped
         self.keys = sample_keys(simgen.datasets.open(path), split, config.data.split)
-        self._dataset: simgen.datasets.Dataset | None = None  # opened again in each worker process
+        self._dataset: RecentFrames | None = None  # opened again in each worker process
 
     def __len__(self) -> int:
         return self.draws - self.first_draw if self.draws is not None else len(self.keys)
@@ -242,7 +266,7 @@ class SampleSet(torch.utils.data.Dataset):
     def __getitem__(self, item: int) -> Encoded:
         item += self.first_draw
         if self._dataset is None:
-            self._dataset = simgen.datasets.open(self.path)
+            self._dataset = RecentFrames(simgen.datasets.open(self.path))
         sample = load_sample(self._dataset, *self.key(item), self.config)
         if self.draws is not None:
             sample = augment(sample, self.config.data.augment, np.random.default_rng([self.config.seed, 1, item]))

@@ -20,16 +20,16 @@ from tqdm import tqdm
 
 import simgen.datasets
 from train.config import TRACKLET_FRAMES, DetectorConfig
-from train.data import Sample, SampleSet, loader
+from train.data import Sample, SampleSet
 from train.detections import clip_tracklets, write_kitti, write_tracklets
 from train.metrics.detection import RECALL_POINTS, FrameBoxes, detection_aps, similarities
 from train.models.detector import Detector
-from train.postprocess import Detections, postprocess
+from train.postprocess import Detections
+from train.streaming import stream
 
 IOU_THRESHOLD = 0.5
 CENTRE_THRESHOLDS_M = (0.25, 0.5, 1.0)
 TRUTH_SETS = ("all", "visible")
-EVAL_BATCH = 2
 MEANINGFUL_TRUTH = 40  # fewer ground-truth boxes make AP coarse
 
 
@@ -47,17 +47,11 @@ class ApRow:
 
 def predict(model: Detector, config: DetectorConfig, dataset: str, split: str | None, device: torch.device,
             progress: bool = True) -> Iterator[tuple[Sample, Detections]]:
-    """Each sample of the split (frames with two before them), in clip and frame order, with its tracklets."""
+    """Each sample of the split (frames with two before them), in clip and frame order, with its tracklets
+    (train.streaming: each frame's backbone once)."""
     samples = SampleSet(dataset, split, config)
-    model = model.to(device).eval()
-    anchors = model.head.anchors
-    batches = loader(samples, EVAL_BATCH, config.train.workers)
-    total = -(-len(samples) // EVAL_BATCH)
-    with torch.no_grad():
-        for batch in tqdm(
-            batches, total=total, desc=f"detect {config.name}", unit="batch", disable=not progress, dynamic_ncols=True
-        ):
-            yield from zip(batch.samples, postprocess(model(batch.to(device)), anchors, config))
+    found = stream(model, config, samples, device)
+    yield from tqdm(found, total=len(samples), desc=f"detect {config.name}", unit="frame", disable=not progress, dynamic_ncols=True)
 
 
 def box_name(offset: int) -> str:
@@ -170,9 +164,7 @@ def detect(model: Detector, config: DetectorConfig, dataset: str, split: str | N
     (out / "tracklets").mkdir(parents=True, exist_ok=True)
     written = []
     for clip, frames in by_clip.items():
-        tracklets = clip_tracklets(
-            clip, [f for f, _ in frames], [d.boxes for _, d in frames], [d.scores for _, d in frames]
-        )
+        tracklets = clip_tracklets(clip, [f for f, _ in frames], [d.boxes for _, d in frames], [d.scores for _, d in frames])
         path = out / "tracklets" / f"{clip}.npz"
         write_tracklets(path, tracklets)
         write_kitti(out / "kitti" / clip, tracklets, [f for f, _ in frames])

@@ -24,17 +24,27 @@ class Detections:
 
 def postprocess(output: HeadOutput, anchors: torch.Tensor, config: DetectorConfig) -> list[Detections]:
     """Per sample of the batch, the tracklets kept after NMS on their box at t."""
-    infer = config.infer
     results = []
     for b in range(output.scores.shape[0]):
-        scores = torch.sigmoid(output.scores[b])
-        keep = torch.nonzero(scores >= infer.score_threshold).squeeze(1)
-        keep = keep[torch.argsort(scores[keep], descending=True)[: infer.pre_nms]]
-        boxes = decode(anchors[keep], output.deltas[b, keep])
-        bins = output.direction[b, keep].argmax(dim=-1)
-        boxes[..., 6] = apply_direction(boxes[..., 6], bins[:, None], config.model.head.dir_offset_rad)
-        boxes_np = boxes.detach().cpu().numpy().astype(np.float32)
-        scores_np = scores[keep].detach().cpu().numpy().astype(np.float32)
-        kept = nms_bev(boxes_np[:, -1], scores_np, infer.nms_iou, infer.max_detections)
-        results.append(Detections(boxes_np[kept].reshape(-1, boxes_np.shape[1], 7), scores_np[kept]))
+        keep, scores = candidates(output.scores[b], config)
+        results.append(tracklets(keep, scores, output.deltas[b, keep], output.direction[b, keep], anchors, config))
     return results
+
+
+def candidates(logits: torch.Tensor, config: DetectorConfig) -> tuple[torch.Tensor, torch.Tensor]:
+    """One sample's anchors (K,) scoring at least the threshold, best `pre_nms` first, and all (N_a,) scores."""
+    scores = torch.sigmoid(logits)
+    keep = torch.nonzero(scores >= config.infer.score_threshold).squeeze(1)
+    return keep[torch.argsort(scores[keep], descending=True)[: config.infer.pre_nms]], scores
+
+
+def tracklets(keep: torch.Tensor, scores: torch.Tensor, deltas: torch.Tensor, direction: torch.Tensor, anchors: torch.Tensor,
+              config: DetectorConfig) -> Detections:
+    """The `keep` anchors' tracklets (their deltas (K, K_boxes, 7) and direction logits (K, 2)) after NMS."""
+    boxes = decode(anchors[keep], deltas)
+    bins = direction.argmax(dim=-1)
+    boxes[..., 6] = apply_direction(boxes[..., 6], bins[:, None], config.model.head.dir_offset_rad)
+    boxes_np = boxes.detach().cpu().numpy().astype(np.float32)
+    scores_np = scores[keep].detach().cpu().numpy().astype(np.float32)
+    kept = nms_bev(boxes_np[:, -1], scores_np, config.infer.nms_iou, config.infer.max_detections)
+    return Detections(boxes_np[kept].reshape(-1, boxes_np.shape[1], 7), scores_np[kept])

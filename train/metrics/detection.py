@@ -85,14 +85,18 @@ def _match(
     if len(frame.boxes) == 0 or len(frame.truth) == 0:
         return tp, dropped
     ignore = np.zeros(len(frame.truth), bool) if frame.ignore is None else frame.ignore
-    taken = np.zeros(len(frame.truth), bool)
-    order = np.argsort(-frame.scores, kind="stable")
-    for i in order[similarity[order].max(axis=1) >= threshold]:  # the others match nothing, whatever is taken
-        free = np.where(taken, -np.inf, similarity[i])
-        best = int(free.argmax())
-        if free[best] >= threshold:
-            taken[best] = True
-            tp[i], dropped[i] = not ignore[best], ignore[best]
+    rank = np.empty(len(frame.boxes), np.int64)
+    rank[np.argsort(-frame.scores, kind="stable")] = np.arange(len(frame.boxes))
+    # The pairs at or above the threshold (the others match nothing, whatever is taken), each detection's
+    # in the order it tries them: detections by score, then truth by similarity (the first index on ties).
+    det, truth = np.nonzero(similarity >= threshold)
+    pairs = np.lexsort((truth, -similarity[det, truth], rank[det]))
+    taken, decided = set(), set()
+    for i, g in zip(det[pairs].tolist(), truth[pairs].tolist()):
+        if i not in decided and g not in taken:
+            taken.add(g)
+            decided.add(i)
+            tp[i], dropped[i] = not ignore[g], ignore[g]
     return tp, dropped
 
 

@@ -47,8 +47,12 @@ class Detector(nn.Module):
         self.head = HEADS.build(model.head, config.data, model.backbone_2d, sum(channels))
 
     def forward(self, batch: PillarBatch) -> HeadOutput:
-        images = self.pillar_encoder(batch.features, batch.pillar, batch.point_pillar, batch.batch_size * self.canvases)
-        return self.head(self.fusion(self.backbone_2d(images), batch.batch_size))
+        return self.head(self.fusion(self.canvas_levels(batch, batch.batch_size * self.canvases), batch.batch_size))
+
+    def canvas_levels(self, batch: PillarBatch, canvases: int) -> list[torch.Tensor]:
+        """The backbone's levels (canvases, C_i, H, W) of the batch's pillars, one per canvas: the part of
+        the model that sees one canvas alone (train.streaming runs it once per frame)."""
+        return self.backbone_2d(self.pillar_encoder(batch.features, batch.pillar, batch.point_pillar, canvases))
 
 
 def build_detector(config: DetectorConfig) -> Detector:

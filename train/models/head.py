@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass
 
 import torch
+import torch.nn.functional as F
 from torch import nn
 
 from train.config import Backbone2dConfig, DataConfig, HeadConfig
@@ -58,3 +59,18 @@ class DetectionHead(nn.Module):
             deltas=per_anchor(self.box(features), self.boxes, 7),
             direction=per_anchor(self.direction(features), 2),
         )
+
+    def anchor_scores(self, features: torch.Tensor) -> torch.Tensor:
+        """(B, N_a) score logits alone, as `forward` gives them."""
+        return self.score(features).permute(0, 2, 3, 1).reshape(features.shape[0], -1)
+
+    def anchor_boxes(self, features: torch.Tensor, anchors: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Deltas (K, K_boxes, 7) and direction logits (K, 2) of one sample's (C, H, W) `anchors` (K,)
+        alone, as `forward` gives them: the 1 x 1 convolutions at those cells only."""
+        per_cell = self.score.out_channels
+        cell, within = anchors // per_cell, anchors % per_cell
+        at = features.flatten(1)[:, cell].T  # (K, C)
+        pick = torch.arange(len(anchors), device=anchors.device)
+        box = F.linear(at, self.box.weight.flatten(1), self.box.bias).view(len(anchors), per_cell, self.boxes, 7)
+        direction = F.linear(at, self.direction.weight.flatten(1), self.direction.bias).view(len(anchors), per_cell, 2)
+        return box[pick, within], direction[pick, within]

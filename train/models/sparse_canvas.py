@@ -46,20 +46,19 @@ def sparse_conv2d(canvas: SparseCanvas, conv: nn.Conv2d) -> torch.Tensor:
     cells = canvas.rows * canvas.cols
     image, within = canvas.index // cells, canvas.index % cells
     row, col = within // canvas.cols, within % canvas.cols
+    # every tap at once: tap t = (t // kernel_c, t % kernel_c) of each pillar, (U, taps)
+    tap = torch.arange(kernel_r * kernel_c, device=row.device)
+    shifted_r = row[:, None] + pad_r - tap // kernel_c  # the output row times the stride this tap reaches
+    shifted_c = col[:, None] + pad_c - tap % kernel_c
+    out_r, out_c = shifted_r.div(stride_r, rounding_mode="floor"), shifted_c.div(stride_c, rounding_mode="floor")
+    valid = ((shifted_r % stride_r == 0) & (shifted_c % stride_c == 0) & (out_r >= 0) & (out_r < out_rows)
+             & (out_c >= 0) & (out_c < out_cols))
+    target = torch.where(valid, (image[:, None] * out_rows + out_r) * out_cols + out_c, 0)
     out = canvas.features.new_zeros(canvas.canvases * out_rows * out_cols, conv.out_channels)
-    for tap_r in range(kernel_r):
-        shifted_r = row + pad_r - tap_r  # the output row times the stride this tap reaches
-        for tap_c in range(kernel_c):
-            shifted_c = col + pad_c - tap_c
-            out_r, out_c = (
-                shifted_r.div(stride_r, rounding_mode="floor"),
-                shifted_c.div(stride_c, rounding_mode="floor"),
-            )
-            valid = ((shifted_r % stride_r == 0) & (shifted_c % stride_c == 0) & (out_r >= 0) & (out_r < out_rows)
-                     & (out_c >= 0) & (out_c < out_cols))
-            target = torch.where(valid, (image * out_rows + out_r) * out_cols + out_c, 0)
-            contribution = F.linear(canvas.features, conv.weight[:, :, tap_r, tap_c]).to(out.dtype) * valid[:, None]
-            out = out.index_add(0, target, contribution)
+    # every tap's weights in one product: (U, taps, out_channels)
+    taps = F.linear(canvas.features, conv.weight.permute(2, 3, 0, 1).reshape(-1, conv.in_channels))
+    taps = taps.view(len(canvas.index), kernel_r * kernel_c, conv.out_channels).to(out.dtype) * valid[..., None]
+    out = out.index_add(0, target.flatten(), taps.flatten(0, 1))
     out = out.view(canvas.canvases, out_rows, out_cols, conv.out_channels).permute(0, 3, 1, 2)
     if conv.bias is not None:
         out = out + conv.bias[:, None, None]

@@ -1,0 +1,71 @@
+"""Inference over a split's windows in clip order, each frame's pillars and backbone run once.
+
+A late-fusion window at t reads frames t-2, t-1 and t, each on its own canvas, and the pillar
+encoder and backbone see one canvas alone: so consecutive windows of a clip share two frames'
+backbone levels, kept here, and only the new frame is computed (a third of the work). Without
+augmentation a frame's points are the same in every window that holds it, so this is the
+model's own forward, in another order. The BatchNorms are folded (train.models.folding), and the
+head's box and direction convolutions run only at the anchors that pass the score threshold.
+Single-frame models reuse nothing (each frame is one window); early fusion merges the sweeps on
+one canvas, so each window is its own key.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from dataclasses import replace
+
+import numpy as np
+import torch
+
+from train.config import DetectorConfig
+from train.data import Batch, Encoded, Sample, collate
+from train.models.detector import Detector
+from train.models.folding import fold_batchnorm
+from train.postprocess import Detections, candidates, tracklets
+
+
+def canvas_keys(sample: Sample, config: DetectorConfig) -> list[tuple[str, int, int]]:
+    """What each input canvas of `sample` holds, oldest first: (clip, frame, 0) where a canvas is one
+    frame (late fusion, single frame), else (clip, window t, 1): the same key, the same canvas."""
+    canvases = config.model.fusion.canvases
+    if canvases != config.model.fusion.input_frames:
+        return [(sample.clip, sample.index, 1)]
+    return [(sample.clip, sample.index - canvases + 1 + k, 0) for k in range(canvases)]
+
+
+def _canvases(encoded: Encoded, wanted: list[int], grid_cells: int) -> Batch:
+    """A batch of the `wanted` canvases of one encoded sample, one canvas per item."""
+    items = [replace(encoded, features=encoded.features[encoded.canvas == k], cells=encoded.cells[encoded.canvas == k],
+                     canvas=np.zeros(int(np.count_nonzero(encoded.canvas == k)), np.int64), targets=None) for k in wanted]
+    return collate(items, 1, grid_cells)
+
+
+def fused_features(folded: Detector, config: DetectorConfig, samples: Sequence[Encoded], device: torch.device
+                   ) -> Iterator[tuple[Sample, torch.Tensor]]:
+    """Each encoded sample (a SampleSet without augmentation, in order) with the head's input (1, C, H, W),
+    each canvas's backbone and fusion terms computed once and kept while a window holds it."""
+    rows, cols = config.data.grid_size
+    kept: dict[tuple[str, int, int], list[torch.Tensor]] = {}
+    for item in range(len(samples)):
+        encoded = samples[item]
+        keys = canvas_keys(encoded.sample, config)
+        missing = [k for k, key in enumerate(keys) if key not in kept]
+        if missing:
+            levels = folded.canvas_levels(_canvases(encoded, missing, rows * cols).to(device), len(missing))
+            terms = folded.fusion.frame_terms(levels)
+            kept.update({keys[k]: [term[j] for term in terms] for j, k in enumerate(missing)})
+        kept = {key: kept[key] for key in keys}
+        yield encoded.sample, folded.fusion.fuse_frame_terms([kept[key] for key in keys])
+
+
+def stream(model: Detector, config: DetectorConfig, samples: Sequence[Encoded], device: torch.device
+           ) -> Iterator[tuple[Sample, Detections]]:
+    """Each encoded sample (a SampleSet without augmentation, in order) with its tracklets, as `model(batch)`
+    and train.postprocess would give them (to float32 rounding)."""
+    folded = fold_batchnorm(model).to(device)
+    with torch.inference_mode():
+        for sample, features in fused_features(folded, config, samples, device):
+            keep, scores = candidates(folded.head.anchor_scores(features)[0], config)
+            deltas, direction = folded.head.anchor_boxes(features[0], keep)
+            yield sample, tracklets(keep, scores, deltas, direction, folded.head.anchors, config)
