@@ -22,7 +22,8 @@ the CPU studies run two fits side by side on two cores).
 
 Writes benchmarks/results/train.md.
 
-Usage: .venv/bin/python benchmarks/bench_train.py [--baseline d2bfbe4] [--iterations 40] [--rounds 2] [--paper-iterations 3]
+Usage: .venv/bin/python benchmarks/bench_train.py [--baseline d2bfbe4] [--iterations 40] [--rounds 2]
+       [--paper-iterations 3]
 """
 
 from __future__ import annotations
@@ -31,30 +32,30 @@ import os
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
-import csv  # noqa: E402
-import io  # noqa: E402
-import statistics  # noqa: E402
-import subprocess  # noqa: E402
-import sys  # noqa: E402
-import tarfile  # noqa: E402
-import tempfile  # noqa: E402
-import time  # noqa: E402
-from dataclasses import dataclass  # noqa: E402
-from pathlib import Path  # noqa: E402
+import argparse
+import csv
+import io
+import statistics
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
 
-import torch  # noqa: E402
-import yaml  # noqa: E402
-from table import machine, markdown_table, write_results  # noqa: E402
+import torch
+import yaml
+from table import machine, markdown_table, write_results
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from train.config import parse_config  # noqa: E402
-from train.data import SampleSet, loader  # noqa: E402
-from train.fit import autocast  # noqa: E402
-from train.losses import detection_loss  # noqa: E402
-from train.models.detector import build_detector  # noqa: E402
+from train.config import parse_config
+from train.data import SampleSet, loader
+from train.fit import autocast
+from train.losses import detection_loss
+from train.models.detector import build_detector
 
 PACKAGES = ("simgen", "train", "scan_patterns")
 
@@ -94,7 +95,9 @@ def step_breakdown(config_path: Path, dataset: Path, steps: int, device: torch.d
     """Mean seconds per step of each phase, after two warm-up steps."""
     config = parse_config(yaml.safe_load(config_path.read_text()))
     model = build_detector(config).to(device).train()
-    samples = SampleSet(str(dataset), "train", config, draws=(steps + 2) * config.train.batch_size, assign=model.head.assigner)
+    samples = SampleSet(
+        str(dataset), "train", config, draws=(steps + 2) * config.train.batch_size, assign=model.head.assigner
+    )
     optimizer = torch.optim.AdamW(model.parameters(), lr=config.train.lr)
     batches = loader(samples, config.train.batch_size, 1, model.head.assigner.collate, pin_memory=device.type == "cuda")
     phases = {"waiting for data": 0.0, "forward": 0.0, "backward": 0.0, "optimiser": 0.0}
@@ -143,7 +146,8 @@ start, wall = cpu(), time.perf_counter()
 results = list(predict(model, saved.config, sys.argv[2], "val", torch.device("cpu"), progress=False))
 inferred = cpu()
 average_precisions(results, visible_objects(simgen.datasets.open(sys.argv[2]), [s for s, _ in results]))
-print(inferred - start, cpu() - inferred, time.perf_counter() - wall, len(results), sum(len(d.scores) for _, d in results))
+detections = sum(len(d.scores) for _, d in results)
+print(inferred - start, cpu() - inferred, time.perf_counter() - wall, len(results), detections)
 """
 
 
@@ -161,8 +165,14 @@ class ValPass:
 def val_pass(tree: Path, checkpoint: Path, dataset: Path) -> ValPass:
     """`tree`'s predict and AP on the val clips in a child process, one torch thread."""
     env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
-    done = subprocess.run([sys.executable, "-c", VAL_PASS, str(checkpoint), str(dataset)], cwd=tree, env=env, check=True,
-                          capture_output=True, text=True)
+    done = subprocess.run(
+        [sys.executable, "-c", VAL_PASS, str(checkpoint), str(dataset)],
+        cwd=tree,
+        env=env,
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     inference, ap, wall, frames, detections = done.stdout.split()
     return ValPass(float(inference), float(ap), float(wall), int(frames), int(detections))
 
@@ -175,7 +185,9 @@ def paper_rate(name: str, dataset: Path, iterations: int, device: torch.device) 
         raw["train"]["batch_size"] = 2
     config = parse_config(raw)
     model = build_detector(config).to(device).train()
-    samples = SampleSet(str(dataset), "train", config, draws=(iterations + 1) * config.train.batch_size, assign=model.head.assigner)
+    samples = SampleSet(
+        str(dataset), "train", config, draws=(iterations + 1) * config.train.batch_size, assign=model.head.assigner
+    )
     optimizer = torch.optim.AdamW(model.parameters(), lr=config.train.lr)
     batches = loader(samples, config.train.batch_size, 0, model.head.assigner.collate)
     for step in range(iterations + 1):
@@ -220,26 +232,46 @@ def main() -> None:
         checkpoints = {name: scratch / "runs" / name / "fit0" / "checkpoint.pt" for name in trees}
         val = {name: val_pass(tree, checkpoints[name], data[name]) for name, tree in trees.items()}
         breakdown = {d.type: step_breakdown(configs["this tree"], data["this tree"], 10, d) for d in devices}
-        paper = {(m, d.type): paper_rate(m, data["this tree"], args.paper_iterations, d) for m in ("single", "late") for d in devices}
+        paper = {
+            (m, d.type): paper_rate(m, data["this tree"], args.paper_iterations, d)
+            for m in ("single", "late")
+            for d in devices
+        }
     median = {name: statistics.median(r) for name, r in rates.items()}
     fit_rows = [[name, args.iterations, " / ".join(f"{r:.3f}" for r in rates[name]), f"{median[name]:.3f}",
                  f"{median[name] / median['baseline']:.2f}"] for name in trees]
     total = {name: v.inference_s + v.ap_s for name, v in val.items()}
-    val_rows = [[name, f"{v.inference_s:.2f}", f"{v.ap_s:.2f}", f"{total[name]:.2f}", f"{total[name] / total['baseline']:.3f}",
-                 f"{v.wall_s:.1f}", f"{v.detections / max(v.frames, 1):.0f}"] for name, v in val.items()]
+    val_rows = [
+        [
+            name,
+            f"{v.inference_s:.2f}",
+            f"{v.ap_s:.2f}",
+            f"{total[name]:.2f}",
+            f"{total[name] / total['baseline']:.3f}",
+            f"{v.wall_s:.1f}",
+            f"{v.detections / max(v.frames, 1):.0f}",
+        ]
+        for name, v in val.items()
+    ]
     step_rows = [[phase] + [f"{1000 * breakdown[d.type][phase]:.0f}" for d in devices] for phase in breakdown["cpu"]]
     paper_rows = [[m] + [f"{paper[(m, d.type)]:.2f}" for d in devices] for m in ("single", "late")]
     write_results(
-        "train", "Training speed (benchmarks/bench_train.py)",
+        "train",
+        "Training speed (benchmarks/bench_train.py)",
         machine(torch=torch.__version__) + f" Baseline: revision {args.baseline}, same data, same work, alternating.",
-        f"Compact late `fit` on paper_x1 (batch 2, one loader process, one torch thread), samples/s ({args.rounds} rounds):",
+        f"Compact late `fit` on paper_x1 (batch 2, one loader process, one torch thread), samples/s ({args.rounds} "
+        f"rounds):",
         markdown_table(["tree", "iterations", "each round", "median", "ratio"], fit_rows),
-        f"Val pass on the {val['this tree'].frames} val frames with each tree's checkpoint of the first round: inference "
+        f"Val pass on the {val['this tree'].frames} val frames with each tree's checkpoint of the first round: "
+        f"inference "
         "(loading included) and AP (visible boxes, AP of all and visible boxes at t, t-1, t-2), CPU seconds of a child "
         "process and its loader processes, one torch thread (imports and checkpoint loading not counted):",
-        markdown_table(["tree", "inference CPU s", "AP CPU s", "val pass CPU s", "ratio", "wall s", "detections per frame"],
-                       val_rows),
-        "A step of this tree by phase, ms (compact late, batch 2; CUDA synchronised at each phase for this table only):",
+        markdown_table(
+            ["tree", "inference CPU s", "AP CPU s", "val pass CPU s", "ratio", "wall s", "detections per frame"],
+            val_rows,
+        ),
+        "A step of this tree by phase, ms (compact late, batch 2; CUDA synchronised at each phase for this table "
+        "only):",
         markdown_table(["phase"] + [d.type for d in devices], step_rows),
         f"Paper-size configs (train/configs/paper/), samples/s over {args.paper_iterations} steps after one warm-up, "
         "loader in this process; batch 2 on CPU, the configs' 8 on CUDA:",

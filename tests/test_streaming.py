@@ -7,18 +7,23 @@ from detector_support import tiny_config
 
 from train.data import Sample, collate, encode_sample
 from train.models.detector import build_detector
-from train.postprocess import postprocess
 from train.models.folding import fold_batchnorm
+from train.postprocess import postprocess
 from train.streaming import fused_features, stream
 
 
 def _windows(config, clips=("a", "b"), frames=4):
-    """Encoded windows t = 2 .. frames - 1 of two clips of random frames (each frame the same points in every window)."""
+    """Encoded windows t = 2 .. frames - 1 of two clips of random frames (each frame the same points in every
+    window)."""
     rng = np.random.default_rng(3)
     out = []
     for clip in clips:
-        clouds = [np.column_stack([rng.uniform([-16, -24, 0], [16, 8, 2], (2000, 3)), rng.uniform(0, 1, 2000)]).astype(np.float32)
-                  for _ in range(frames)]
+        clouds = [
+            np.column_stack([rng.uniform([-16, -24, 0], [16, 8, 2], (2000, 3)), rng.uniform(0, 1, 2000)]).astype(
+                np.float32
+            )
+            for _ in range(frames)
+        ]
         for t in range(2, frames):
             boxes = np.tile(np.array([1.0, -5.0, 0.9, 0.8, 0.6, 1.8, 0.3], np.float32), (1, 3, 1))
             points = tuple(clouds[t - config.model.fusion.input_frames + 1: t + 1])
@@ -72,7 +77,9 @@ def test_streamed_detections_equal_the_forward_of_each_window():
     streamed = list(stream(model, config, windows, torch.device("cpu")))
     for encoded, (_, found) in zip(windows, streamed):
         with torch.no_grad():
-            (alone,) = postprocess(model(collate([encoded], config.model.fusion.canvases, rows * cols)), model.head.anchors, config)
+            (alone,) = postprocess(
+                model(collate([encoded], config.model.fusion.canvases, rows * cols)), model.head.anchors, config
+            )
         assert len(alone.scores) > 10 and found.boxes.shape == alone.boxes.shape
         np.testing.assert_allclose(found.scores, alone.scores, rtol=1e-5, atol=1e-6)
         np.testing.assert_allclose(found.boxes, alone.boxes, rtol=1e-5, atol=1e-4)

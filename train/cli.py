@@ -55,7 +55,7 @@ SPLITS = ("train", "val", "all")
 class _Parser(argparse.ArgumentParser):
     """argparse, but usage errors are one line (argparse already exits 2)."""
 
-    def error(self, message: str) -> None:  # noqa: D102 - argparse API
+    def error(self, message: str) -> None:
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
@@ -101,8 +101,11 @@ def _split(name: str) -> str | None:
     return None if name == "all" else name
 
 
-def _model(checkpoint_path: str, dataset: simgen.datasets.Dataset, device: torch.device) -> tuple[Detector, DetectorConfig, int]:
-    """The checkpoint's detector, once its inference (one window at a time, train.streaming) is known to fit the device."""
+def _model(
+    checkpoint_path: str, dataset: simgen.datasets.Dataset, device: torch.device
+) -> tuple[Detector, DetectorConfig, int]:
+    """The checkpoint's detector, once its inference (one window at a time, train.streaming) is known to fit the
+    device."""
     checkpoint = load_checkpoint(checkpoint_path)
     config = checkpoint.config
     check_memory(config, dataset_points_per_frame(dataset), device, training=False, batch=1)
@@ -172,8 +175,20 @@ def _study_options(args: argparse.Namespace, scenario_path: str, models_text: st
     models = parse_models(models_text, scenario.scan.density)
     if args.seeds is not None and args.seed is not None:
         raise UserError("study: give --seed or --seeds, not both")
-    options = StudyOptions(Path(scenario_path), _output(out), Path(args.datasets), models, args.iterations, args.workers,
-                           args.seed, Path(configs), _device(args.device), not args.quiet, Path(args.trackers), args.split)
+    options = StudyOptions(
+        Path(scenario_path),
+        _output(out),
+        Path(args.datasets),
+        models,
+        args.iterations,
+        args.workers,
+        args.seed,
+        Path(configs),
+        _device(args.device),
+        not args.quiet,
+        Path(args.trackers),
+        args.split,
+    )
     load_tracker_configs(options.trackers)
     for model in models:
         _preflight(model_config(options, model), scenario_points_per_frame(scenario), options.device)
@@ -182,7 +197,15 @@ def _study_options(args: argparse.Namespace, scenario_path: str, models_text: st
 
 def _one_study(args: argparse.Namespace, options: StudyOptions, scenario: Scenario) -> list[Path]:
     """One scenario's study (once per seed with --seeds); returns the table files."""
-    spelled = [str(options.scenario), "-o", str(options.out), "--models", ",".join(options.models), "--datasets", args.datasets]
+    spelled = [
+        str(options.scenario),
+        "-o",
+        str(options.out),
+        "--models",
+        ",".join(options.models),
+        "--datasets",
+        args.datasets,
+    ]
     spelled += ["--device", args.device]
     for key in ("iterations", "workers", "seed", "split"):
         spelled += [f"--{key}", str(getattr(args, key))] if getattr(args, key) is not None else []
@@ -273,12 +296,22 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--split", choices=SPLITS, default="val", help="clips to run on (default: val)")
         p.set_defaults(func=func)
 
-    p = sub.add_parser("study", help="a scenario -> its dataset -> the paper's Table 1 (AP) and Table 2 (tracking) in OUT")
-    p.add_argument("scenario", nargs="?", help="scenario YAML (scenarios/); its dataset is DATASETS/<name>, made if missing")
-    p.add_argument("--preset", choices=sorted(PRESETS), help="instead of a scenario: `paper` runs the paper's Table 1 (x1: "
-                   "single, early, late; x2: single, late) and Table 2 with the paper-size configs (train/configs/paper/, "
-                   "for a GPU: docs/gpu_study.md) into OUT/paper_x1/ and OUT/paper_x2/")
-    p.add_argument("-o", "--output", required=True, help="output folder (created): table1/2.md and .csv, a run per model")
+    p = sub.add_parser(
+        "study", help="a scenario -> its dataset -> the paper's Table 1 (AP) and Table 2 (tracking) in OUT"
+    )
+    p.add_argument(
+        "scenario", nargs="?", help="scenario YAML (scenarios/); its dataset is DATASETS/<name>, made if missing"
+    )
+    p.add_argument(
+        "--preset",
+        choices=sorted(PRESETS),
+        help="instead of a scenario: `paper` runs the paper's Table 1 (x1: "
+        "single, early, late; x2: single, late) and Table 2 with the paper-size configs (train/configs/paper/, "
+        "for a GPU: docs/gpu_study.md) into OUT/paper_x1/ and OUT/paper_x2/",
+    )
+    p.add_argument(
+        "-o", "--output", required=True, help="output folder (created): table1/2.md and .csv, a run per model"
+    )
     p.add_argument("--models", default="late", help="Table 1 rows, comma-separated: late and any of single, early "
                    "(default: late; --preset sets them)")
     p.add_argument("--iterations", type=ITERATIONS, help="training batches per model (default: each config's)")
@@ -291,8 +324,11 @@ def build_parser() -> argparse.ArgumentParser:
                    "configs', clip): clip holds out whole clips; frame holds out every k-th t-2..t window of every "
                    "clip, no training window sharing a frame with a val one (Table 2 needs clip)")
     p.add_argument("--datasets", default="datasets", help="folder of datasets by scenario name (default: datasets)")
-    p.add_argument("--configs", default=str(CONFIGS), help="folder with single/early/late.yaml (default: train/configs; "
-                   "--preset sets it)")
+    p.add_argument(
+        "--configs",
+        default=str(CONFIGS),
+        help="folder with single/early/late.yaml (default: train/configs; --preset sets it)",
+    )
     p.add_argument("--trackers", default=str(TRACKER_CONFIGS), help="folder of tracker configs, one per Table 2 row "
                    "(default: train/configs/tracking)")
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto", help="default: CUDA when present")

@@ -71,7 +71,9 @@ def _discontinuity(frame: simgen.datasets.Frame) -> NDArray[np.bool_]:
     return np.zeros(len(frame.boxes), bool) if frame.discontinuity is None else frame.discontinuity
 
 
-def load_sample(dataset: simgen.datasets.Dataset | RecentFrames, clip: str, index: int, config: DetectorConfig) -> Sample:
+def load_sample(
+    dataset: simgen.datasets.Dataset | RecentFrames, clip: str, index: int, config: DetectorConfig
+) -> Sample:
     """Read frames t-2..t and match the boxes of the objects at t by track id. Where the engine placed
     an object for a restart within the window (a box's discontinuity flag), its boxes before the
     placement are masked: they belong to another segment of its motion."""

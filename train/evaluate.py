@@ -51,7 +51,9 @@ def predict(model: Detector, config: DetectorConfig, dataset: str, split: str | 
     (train.streaming: each frame's backbone once)."""
     samples = SampleSet(dataset, split, config)
     found = stream(model, config, samples, device)
-    yield from tqdm(found, total=len(samples), desc=f"detect {config.name}", unit="frame", disable=not progress, dynamic_ncols=True)
+    yield from tqdm(
+        found, total=len(samples), desc=f"detect {config.name}", unit="frame", disable=not progress, dynamic_ncols=True
+    )
 
 
 def box_name(offset: int) -> str:
@@ -164,7 +166,9 @@ def detect(model: Detector, config: DetectorConfig, dataset: str, split: str | N
     (out / "tracklets").mkdir(parents=True, exist_ok=True)
     written = []
     for clip, frames in by_clip.items():
-        tracklets = clip_tracklets(clip, [f for f, _ in frames], [d.boxes for _, d in frames], [d.scores for _, d in frames])
+        tracklets = clip_tracklets(
+            clip, [f for f, _ in frames], [d.boxes for _, d in frames], [d.scores for _, d in frames]
+        )
         path = out / "tracklets" / f"{clip}.npz"
         write_tracklets(path, tracklets)
         write_kitti(out / "kitti" / clip, tracklets, [f for f, _ in frames])

@@ -45,8 +45,11 @@ def _disc_overlap(r1: NDArray[np.float64], r2: NDArray[np.float64], gap: NDArray
     return np.where(gap >= r1 + r2, 0.0, np.where(gap <= np.abs(r1 - r2), inside, lens))
 
 
-def nms_bev(boxes: NDArray[np.float32], scores: NDArray[np.float32], iou_threshold: float, keep_max: int) -> NDArray[np.int64]:
-    """Indices of kept boxes (N, 7), best score first: a box goes when it overlaps a kept one by more than the threshold."""
+def nms_bev(
+    boxes: NDArray[np.float32], scores: NDArray[np.float32], iou_threshold: float, keep_max: int
+) -> NDArray[np.int64]:
+    """Indices of kept boxes (N, 7), best score first: a box goes when it overlaps a kept one by more than the
+    threshold."""
     order = np.argsort(-scores, kind="stable")
     ranked = np.asarray(boxes, np.float64)[order]
     area = ranked[:, 3] * ranked[:, 4]
@@ -70,7 +73,9 @@ def nms_bev(boxes: NDArray[np.float32], scores: NDArray[np.float32], iou_thresho
         first, second = first[~now], second[~now]
 
 
-def nms_centre(boxes: NDArray[np.float32], scores: NDArray[np.float32], distance_m: float, keep_max: int) -> NDArray[np.int64]:
+def nms_centre(
+    boxes: NDArray[np.float32], scores: NDArray[np.float32], distance_m: float, keep_max: int
+) -> NDArray[np.int64]:
     """Indices of kept boxes (N, 7), best score first: a box goes when its BEV centre is closer than
     distance_m to a kept one's."""
     order = np.argsort(-scores, kind="stable")

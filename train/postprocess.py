@@ -38,8 +38,14 @@ def candidates(logits: torch.Tensor, config: DetectorConfig) -> tuple[torch.Tens
     return keep[torch.argsort(scores[keep], descending=True)[: config.infer.pre_nms]], scores
 
 
-def tracklets(keep: torch.Tensor, scores: torch.Tensor, deltas: torch.Tensor, direction: torch.Tensor, anchors: torch.Tensor,
-              config: DetectorConfig) -> Detections:
+def tracklets(
+    keep: torch.Tensor,
+    scores: torch.Tensor,
+    deltas: torch.Tensor,
+    direction: torch.Tensor,
+    anchors: torch.Tensor,
+    config: DetectorConfig,
+) -> Detections:
     """The `keep` anchors' tracklets (their deltas (K, K_boxes, 7) and direction logits (K, 2)) after NMS."""
     boxes = decode(anchors[keep], deltas)
     bins = direction.argmax(dim=-1)

@@ -36,8 +36,16 @@ def canvas_keys(sample: Sample, config: DetectorConfig) -> list[tuple[str, int, 
 
 def _canvases(encoded: Encoded, wanted: list[int], grid_cells: int) -> Batch:
     """A batch of the `wanted` canvases of one encoded sample, one canvas per item."""
-    items = [replace(encoded, features=encoded.features[encoded.canvas == k], cells=encoded.cells[encoded.canvas == k],
-                     canvas=np.zeros(int(np.count_nonzero(encoded.canvas == k)), np.int64), targets=None) for k in wanted]
+    items = [
+        replace(
+            encoded,
+            features=encoded.features[encoded.canvas == k],
+            cells=encoded.cells[encoded.canvas == k],
+            canvas=np.zeros(int(np.count_nonzero(encoded.canvas == k)), np.int64),
+            targets=None,
+        )
+        for k in wanted
+    ]
     return collate(items, 1, grid_cells)
 
 

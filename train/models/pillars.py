@@ -38,21 +38,32 @@ class PillarFeatureNet(nn.Module):
         self.linear = nn.Linear(point_features + 6, self.channels, bias=False)
         self.norm = nn.BatchNorm1d(self.channels, eps=1e-3, momentum=0.1)
 
-    def forward(self, features: torch.Tensor, pillar: torch.Tensor, point_pillar: torch.Tensor, canvases: int) -> SparseCanvas:
+    def forward(
+        self, features: torch.Tensor, pillar: torch.Tensor, point_pillar: torch.Tensor, canvases: int
+    ) -> SparseCanvas:
         """Points (P, F), the non-empty pillars' flat cell indices (U,) and each point's pillar (P,) in 0..U-1."""
         cells = self.rows * self.cols
         ones = torch.ones_like(point_pillar, dtype=features.dtype)
-        counts = torch.zeros(len(pillar), device=features.device, dtype=features.dtype).index_add_(0, point_pillar, ones)
-        sums = torch.zeros(len(pillar), 3, device=features.device, dtype=features.dtype).index_add_(0, point_pillar, features[:, :3])
+        counts = torch.zeros(len(pillar), device=features.device, dtype=features.dtype).index_add_(
+            0, point_pillar, ones
+        )
+        sums = torch.zeros(len(pillar), 3, device=features.device, dtype=features.dtype).index_add_(
+            0, point_pillar, features[:, :3]
+        )
         mean = sums / counts.clamp(min=1)[:, None]
         within = pillar[point_pillar] % cells
         centre = torch.stack(
             [(within % self.cols).to(features.dtype) + 0.5, (within // self.cols).to(features.dtype) + 0.5], dim=1
         ) * self.pillar_m
         centre = torch.cat([centre, torch.zeros_like(centre[:, :1])], dim=1) + self.origin
-        decorated = torch.cat([features, features[:, :3] - mean[point_pillar], features[:, :3] - centre], dim=1) * self.input_scale
+        decorated = (
+            torch.cat([features, features[:, :3] - mean[point_pillar], features[:, :3] - centre], dim=1)
+            * self.input_scale
+        )
         point = self.norm(self.linear(decorated))
         # starting from zeros, the maximum is max(0, max_i y_i) = max_i ReLU(y_i): the ReLU, without a copy per point
         pooled = torch.zeros(len(pillar), self.channels, device=features.device, dtype=point.dtype)
-        pooled = pooled.scatter_reduce(0, point_pillar[:, None].expand(-1, self.channels), point, reduce="amax", include_self=True)
+        pooled = pooled.scatter_reduce(
+            0, point_pillar[:, None].expand(-1, self.channels), point, reduce="amax", include_self=True
+        )
         return SparseCanvas(pooled, pillar, canvases, self.rows, self.cols)
