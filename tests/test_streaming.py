@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 import torch
-from detector_support import tiny_config
 
+from tests.support.detector import tiny_config
 from train.data import Sample, collate, encode_sample
 from train.models.detector import build_detector
 from train.models.folding import fold_batchnorm
