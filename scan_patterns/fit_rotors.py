@@ -25,6 +25,7 @@ from scan_patterns.shots import angle_between_deg, angles_from_dirs, dirs_from_a
 from scan_patterns.timebase import cycles
 
 REFINE_SHOTS = 20_000  # laser 0's shots, evenly spread over the table, that score a pair of rates
+CHUNK = 65_536  # shots in one basis at a time (bounds the memory of the normal equations' sums)
 
 
 def _peak_hz(t_s: NDArray, signal: NDArray) -> float:
@@ -49,8 +50,8 @@ def _real_fit(theta1: NDArray, delta: NDArray, ys: tuple[NDArray, ...], orders: 
     the cos and sin parts by normal equations, summed over chunks of shots (the basis is near orthogonal)."""
     size = 2 * orders * terms
     normal, right = np.zeros((size, size)), np.zeros((len(ys), size))
-    for start in range(0, len(theta1), rotors.CHUNK):
-        part = slice(start, start + rotors.CHUNK)
+    for start in range(0, len(theta1), CHUNK):
+        part = slice(start, start + CHUNK)
         basis = _basis(theta1[part], delta[part], orders, terms)
         real = np.hstack([basis.real, -basis.imag])
         normal += real.T @ real

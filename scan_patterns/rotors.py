@@ -28,7 +28,6 @@ from scan_patterns.timebase import cycles
 
 REFERENCE = Path(__file__).resolve().parent / "reference"
 FITS = {"mid360": 4}  # table -> its lasers: the fits stored as reference/<table>_rotors.npz
-CHUNK = 65_536  # shots evaluated at once (bounds the memory of the Fourier sums)
 
 
 @dataclass(frozen=True)
@@ -62,22 +61,22 @@ def load(table: str) -> RotorFit:
 
 
 def angles(fit: RotorFit, t_s: NDArray[np.float64], line: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(azimuth, elevation), radians float64, of lasers `line` at times `t_s` (s)."""
-    t_s, line = np.asarray(t_s, np.float64), np.asarray(line, np.intp)
-    orders, terms = fit.elevation.shape[1], fit.elevation.shape[2]
-    m, k = np.arange(orders), np.arange(terms) - terms // 2
-    azimuth, elevation = np.empty(len(t_s)), np.empty(len(t_s))
-    for start in range(0, len(t_s), CHUNK):
-        part = slice(start, start + CHUNK)
-        theta1, delta = cycles(t_s[part], fit.rates_hz[0]), cycles(t_s[part], fit.rates_hz[1])
-        e1, e2 = np.exp(1j * np.outer(theta1, m)), np.exp(1j * np.outer(delta, k))
-        azimuth[part] = theta1
-        elevation[part] = 0.0
-        for laser in np.unique(line[part]):
-            mine = np.flatnonzero(line[part] == laser)
-            elevation[start + mine] = ((e1[mine] @ fit.elevation[laser]) * e2[mine]).sum(1).real
-            azimuth[start + mine] += ((e1[mine] @ fit.azimuth[laser]) * e2[mine]).sum(1).real
-    return azimuth, elevation
+    """(azimuth, elevation), radians float64, of lasers `line` at times `t_s` (s): the sums of elevation and
+    azimuth - theta1 together in one compiled pass over the shots (`rotors_kernels.fourier_sums`), each pair
+    of terms +-k folded into a k delta cosine and a sine."""
+    t_s, line = np.asarray(t_s, np.float64), np.ascontiguousarray(line, np.intp)
+    theta1, delta = cycles(t_s, fit.rates_hz[0]), cycles(t_s, fit.rates_hz[1])
+    lasers, orders, terms = fit.elevation.shape
+    coefficients = np.stack([fit.elevation, fit.azimuth], 1).transpose(0, 3, 1, 2).reshape(lasers, terms, 2 * orders)
+    half = terms // 2
+    up, down = coefficients[:, half:], coefficients[:, half::-1]  # k = 0..K and k = 0..-K
+    cosine, sine = np.concatenate([up[:, :1], up[:, 1:] + down[:, 1:]], 1), 1j * (up - down)
+    weights = np.stack([np.concatenate([part.real, part.imag], 2) for part in (cosine, sine)], 2)
+    sums = np.empty((len(t_s), 2))
+    from scan_patterns import rotors_kernels  # numba, compiled on first use: importing the presets needs neither
+
+    rotors_kernels.fourier_sums(theta1, delta, line, weights, orders, sums)
+    return theta1 + sums[:, 1], sums[:, 0]
 
 
 def directions(params: RotorParams, t_s: NDArray[np.float64], line: NDArray) -> NDArray[np.float32]:
