@@ -21,6 +21,7 @@ from table import machine, markdown_table, write_results
 from simgen.body.mesh import body_meshes
 from simgen.motion.engine import capture_motion
 from simgen.motion.interpolate import interpolate_clip
+from simgen.scan.sensor import scenario_sensors
 from simgen.scan.sensor_rig import frame_rays
 from simgen.scenario import load_scenario
 from simgen.scene.static import build_static_scene
@@ -80,7 +81,7 @@ def main() -> None:
     parts_f = [np.array([[0, 1, 2], [0, 2, 3]]), static.faces] + [bodies.faces] * len(bodies.vertices_m)
     vertices = np.concatenate(parts_v).astype(np.float32)
     faces = np.concatenate([f + o for f, o in zip(parts_f, offsets)]).astype(np.int32)
-    rays = frame_rays(scenario, scenario.sensor_specs(), 0, start)
+    rays = frame_rays(scenario.scan, scenario_sensors(scenario), 0, start)
     # (b): rays aimed at bodies, as many as the renderer moves into part frames in a frame.
     rng = np.random.default_rng(0)
     targets = bodies.vertices_m.reshape(-1, 3)[

@@ -14,6 +14,7 @@ from simgen.body.mesh import body_meshes
 from simgen.motion.clip import MotionClip
 from simgen.motion.interpolate import interpolate_clip
 from simgen.scan.rays import Rays
+from simgen.scan.sensor import scenario_sensors
 from simgen.scan.sensor_rig import frame_rays
 from simgen.scenario import Scenario
 from simgen.scene.static import StaticScene
@@ -35,6 +36,6 @@ def frozen_frame(
     scene.add_triangles(o3d.core.Tensor(static.vertices), o3d.core.Tensor(static.faces.astype(np.uint32)))
     for vertices in bodies.vertices_m:
         scene.add_triangles(o3d.core.Tensor(vertices), o3d.core.Tensor(bodies.faces.astype(np.uint32)))
-    rays = frame_rays(scenario, scenario.sensor_specs(), index, float(clip.time_s[0]))
+    rays = frame_rays(scenario.scan, scenario_sensors(scenario), index, float(clip.time_s[0]))
     tensor = o3d.core.Tensor(np.concatenate([rays.origin_m, rays.direction], axis=1).astype(np.float32))
     return scene, rays, tensor

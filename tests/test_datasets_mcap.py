@@ -17,6 +17,7 @@ from rosbags.typesys import Stores, get_typestore
 from scipy.spatial.transform import Rotation
 
 import simgen.datasets
+from scan_patterns import get_sensor
 from simgen.cli import main
 from simgen.datasets.ros2_bag import (
     BOXES_TOPIC,
@@ -27,11 +28,13 @@ from simgen.datasets.ros2_bag import (
     cloud_array,
     points_topic,
 )
-from simgen.qa.sensors import sensor_geometry
-from simgen.scan.sensor_info import SensorInfo
+from simgen.scan.sensor import Sensor
 from tests.support.datasets import make_clip, sensors, write_dataset
 
-SECOND = SensorInfo(1, "mid40 far", "mid40-risley", (10.0, 36.0, 6.0, 0.0, -15.0, -90.0), 1, 100_000.0, 10.0, 1, 1.0)
+SECOND = Sensor(
+    1, "mid40 far", "mid40-risley", (10.0, 36.0, 6.0, 0.0, -15.0, -90.0), get_sensor("mid40-risley").heads, 100_000.0,
+    10.0, 1, 1.0
+)
 SENSORS = [*sensors(), SECOND]
 
 
@@ -126,11 +129,10 @@ def test_static_transforms_are_the_sensor_poses(written):
     (tf,) = [m for topic, m in messages if topic == TF_STATIC_TOPIC]
     assert [t.child_frame_id for t in tf.transforms] == [s.name for s in SENSORS]
     for transform, info in zip(tf.transforms, SENSORS):
-        geometry = sensor_geometry(dataclasses.asdict(info), {})
         translation, rotation = transform.transform.translation, transform.transform.rotation
-        np.testing.assert_array_equal([translation.x, translation.y, translation.z], geometry.origin_m)
+        np.testing.assert_array_equal([translation.x, translation.y, translation.z], info.pose[:3])
         matrix = Rotation.from_quat([rotation.x, rotation.y, rotation.z, rotation.w]).as_matrix()
-        np.testing.assert_allclose(matrix, geometry.rotation, atol=1e-12)
+        np.testing.assert_allclose(matrix, info.rotation, atol=1e-12)
         assert transform.header.frame_id == "pitch"
 
 

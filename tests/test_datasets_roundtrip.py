@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import json
+import re
+import shutil
+
 import numpy as np
 import pytest
 
@@ -81,6 +85,28 @@ def test_the_card_names_replay_files_without_their_folders(tmp_path):
     assert '"file": "mine.npz"' in card and str(tmp_path) not in card
     # the manifest keeps the path
     assert manifest.scenario["custom_sensors"][0]["heads"][0]["params"]["file"] == pattern
+
+
+@pytest.mark.parametrize("format", FORMATS)
+def test_every_format_reads_back_the_sensors_it_was_written_with(datasets, format):
+    assert datasets[format].manifest.sensors == tuple(sensors())  # heads too, resolved from the preset
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        ({"preset": "nope"}, "sensor preset 'nope': unknown sensor 'nope'"),
+        ({"heads": 2}, "sensor 'mid100': 2 heads, preset 'mid100-risley' has 3"),
+    ],
+)
+def test_a_sensor_its_preset_does_not_describe_is_one_line(datasets, tmp_path, edit, message):
+    root = tmp_path / "edited"
+    shutil.copytree(datasets["kitti"].root, root)
+    manifest = json.loads((root / "manifest.json").read_text())
+    manifest["sensors"][0].update(edit)
+    (root / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(UserError, match=f"manifest.json: malformed manifest: {re.escape(message)}"):
+        simgen.datasets.open(root)
 
 
 def test_parquet_keeps_everything_the_simulator_made(datasets):

@@ -196,7 +196,7 @@ def check_memory(config: DetectorConfig, points_per_frame: int, device: torch.de
 
 def dataset_points_per_frame(dataset: simgen.datasets.Dataset) -> int:
     """Most points a frame of the dataset can hold: the shots its sensors fire in a frame (manifest)."""
-    return math.ceil(sum(s["shots_per_s"] / s["frame_rate_hz"] for s in dataset.manifest.sensors))
+    return math.ceil(sum(s.shots_per_s / s.frame_rate_hz for s in dataset.manifest.sensors))
 
 
 def scenario_points_per_frame(scenario: Scenario) -> int:

@@ -99,7 +99,7 @@ def run(args) -> int:
         print(f"{out / clip}/: {plural(view.frames, 'PNG')} frame_{frames.start:06d}.png{last} "
               f"({view.size_px[0]} x {view.size_px[1]} px)")
         print(
-            f"{view.video}: {plural(view.frames, 'frame')} at {dataset.manifest.sensors[0]['frame_rate_hz']:g} fps "
+            f"{view.video}: {plural(view.frames, 'frame')} at {dataset.manifest.sensors[0].frame_rate_hz:g} fps "
             f"(H.264)"
         )
     for index in exports:

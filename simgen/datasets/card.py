@@ -48,7 +48,8 @@ def dataset_card(manifest: Manifest) -> str:
     splits = {s: sum(c.frames for c in manifest.clips if c.split == s) for s in ("train", "val")}
     frames = f"{totals['frames']} ({splits['train']} / {splits['val']})"
     layout = dataset_format(manifest.format).card_layout(manifest)
-    sensor_keys = list(manifest.sensors[0]) if manifest.sensors else []
+    sensor_rows = [sensor.record() for sensor in manifest.sensors]
+    sensor_keys = list(sensor_rows[0]) if sensor_rows else []
     lines = [
         f"# {scenario.get('name', 'simgen dataset')}: simulated Livox LiDAR over football ({manifest.format})",
         "",
@@ -98,7 +99,7 @@ def dataset_card(manifest: Manifest) -> str:
         "",
         "`pose`: x, y, z (metres), roll, pitch, yaw (degrees), pitch frame.",
         "",
-        *(table(sensor_keys, [[s[k] for k in sensor_keys] for s in manifest.sensors]) if sensor_keys else ["(none listed)"]),
+        *(table(sensor_keys, [list(row.values()) for row in sensor_rows]) if sensor_keys else ["(none listed)"]),
         "",
         "## Loading",
         "",

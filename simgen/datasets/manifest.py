@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import platform
 import re
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from importlib import metadata
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -23,6 +23,7 @@ from simgen.datasets.formats import FORMATS
 from simgen.datasets.records import FileRecord
 from simgen.datasets.schema import BOX_CONVENTION, PITCH_FRAME, SCHEMA_VERSION
 from simgen.errors import UserError
+from simgen.scan.sensor import Sensor
 from simgen.validation import one_line, read_limited
 
 MANIFEST_NAME = "manifest.json"
@@ -54,21 +55,23 @@ class Manifest:
     dependencies: dict[str, str]
     scenario: dict
     seed: int
-    sensors: tuple[dict, ...]
+    sensors: tuple[Sensor, ...]
     clips: tuple[ClipEntry, ...]
     files: tuple[FileRecord, ...]
     labels: dict[str, float | None]  # LabelStatistics.summary() over every clip
 
     def to_dict(self) -> dict:
         return {
-            **asdict(self),
+            **asdict(replace(self, sensors=())),
+            "sensors": [sensor.record() for sensor in self.sensors],
             "conventions": {"pitch_frame": PITCH_FRAME, "boxes": BOX_CONVENTION},
             "totals": {key: sum(getattr(c, key) for c in self.clips) for key in ("frames", "points", "boxes")},
         }
 
     @classmethod
     def from_dict(cls, data: dict) -> Manifest:
-        """From a manifest.json document; `ValidationError` naming the first bad field."""
+        """From a manifest.json document; `ValidationError` naming the first bad field, ValueError a sensor whose
+        preset its scenario does not resolve."""
         valid = ManifestFile.model_validate(data)
         return cls(
             format=valid.format,
@@ -77,7 +80,7 @@ class Manifest:
             dependencies=dict(valid.dependencies),
             scenario=data["scenario"],
             seed=valid.seed,
-            sensors=tuple(s.model_dump() | {"pose": tuple(s.pose)} for s in valid.sensors),
+            sensors=tuple(Sensor.from_record(s.model_dump(), data["scenario"]) for s in valid.sensors),
             clips=tuple(ClipEntry(**c.model_dump()) for c in valid.clips),
             files=tuple(FileRecord(**f.model_dump()) for f in valid.files),
             labels=dict(valid.labels),
@@ -120,7 +123,7 @@ class ClipItem(_Strict):
 
 
 class SensorItem(_Strict):
-    """`simgen.scan.sensor_info.SensorInfo` as the manifest lists it."""
+    """`simgen.scan.sensor.Sensor.record()` as the manifest lists it (validated as it is read)."""
 
     sensor_id: int = Field(ge=0, lt=256)
     name: str = Field(max_length=128)
@@ -218,3 +221,5 @@ def read_manifest(root: Path) -> Manifest:
     except ValidationError as error:
         extra = f" (and {error.error_count() - 1} more)" if error.error_count() > 1 else ""
         raise UserError(f"{path}: malformed manifest: {one_line(error)}{extra}") from None
+    except ValueError as error:
+        raise UserError(f"{path}: malformed manifest: {error}") from None

@@ -27,7 +27,16 @@ from numpy.typing import NDArray
 from simgen.atomic import atomic_path
 from simgen.datasets.frame import Frame, class_names
 from simgen.datasets.records import FileRecord, record_file
-from simgen.datasets.schema import BOX_FIELDS, CLIP_TABLES, METADATA_KEY, SCHEMA_VERSION, TABLES, units_rows, with_table_metadata
+from simgen.datasets.schema import (
+    BOX_FIELDS,
+    CLIP_TABLES,
+    METADATA_KEY,
+    SCHEMA_VERSION,
+    SENSOR_POSE_COLUMNS,
+    TABLES,
+    units_rows,
+    with_table_metadata,
+)
 from simgen.datasets.verify import DatasetFiles
 from simgen.errors import UserError
 from simgen.vocab import NUM_KEYPOINTS
@@ -35,7 +44,7 @@ from simgen.vocab import NUM_KEYPOINTS
 if TYPE_CHECKING:
     from simgen.labels.boxes import FrameLabels
     from simgen.labels.labelled_frame import LabelledFrame
-    from simgen.scan.sensor_info import SensorInfo
+    from simgen.scan.sensor import Sensor
 
 FRAMES_PER_GROUP = 1000  # row groups of `frames` and `boxes`
 POINTS_FRAMES_PER_GROUP = 10  # row groups of `points`
@@ -135,25 +144,12 @@ def boxes_table(clip: str, indices: Sequence[int], labels: Sequence[FrameLabels]
     return _table("boxes", columns)
 
 
-def sensors_table(sensors: Sequence[SensorInfo]) -> pa.Table:
-    def column(get, dtype):
-        return np.array([get(s) for s in sensors], dtype)
-
-    pose = np.array([s.pose for s in sensors], np.float64).reshape(-1, 6)
-    return _table(
-        "sensors",
-        {
-            "sensor_id": column(lambda s: s.sensor_id, np.int32),
-            "name": [s.name for s in sensors],
-            "preset": [s.preset for s in sensors],
-            **{name: pose[:, i] for i, name in enumerate(("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg"))},
-            "heads": column(lambda s: s.heads, np.int32),
-            "shots_per_s": column(lambda s: s.shots_per_s, np.float64),
-            "frame_rate_hz": column(lambda s: s.frame_rate_hz, np.float64),
-            "sweeps_per_frame": column(lambda s: s.sweeps_per_frame, np.int32),
-            "density": column(lambda s: s.density, np.float64),
-        },
-    )
+def sensors_table(sensors: Sequence[Sensor]) -> pa.Table:
+    """The `sensors` table: each sensor's record (`Sensor.record`) as a row, its pose as six columns."""
+    records = [s.record() for s in sensors]
+    pose = np.array([r["pose"] for r in records], np.float64).reshape(-1, 6)
+    columns = {name: [r[name] for r in records] for name in TABLES["sensors"].names if name not in SENSOR_POSE_COLUMNS}
+    return _table("sensors", columns | {name: pose[:, i] for i, name in enumerate(SENSOR_POSE_COLUMNS)})
 
 
 def table_writer(path: Path, name: str) -> pq.ParquetWriter:
@@ -289,7 +285,7 @@ def _write_dataset_table(root: Path, relative: str, table: pa.Table) -> FileReco
     return record_file(root, relative, len(table))
 
 
-def write_parquet_sensors(root: Path, sensors: Sequence[SensorInfo]) -> FileRecord:
+def write_parquet_sensors(root: Path, sensors: Sequence[Sensor]) -> FileRecord:
     """The dataset's one `sensors` table."""
     return _write_dataset_table(root, SENSORS_PATH, sensors_table(sorted(sensors, key=lambda s: s.sensor_id)))
 

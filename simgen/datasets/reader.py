@@ -83,7 +83,7 @@ class Dataset:
             raise UserError(f"{self.root}: clip {clip} has frames 0-{frames - 1}, not {index}")
         frame = self._reader.frame(clip, index)
         if frame.time_s is None:  # KITTI and OpenPCDet files keep no time: the manifest's clock
-            rate_hz = float(self.manifest.sensors[0]["frame_rate_hz"])
+            rate_hz = self.manifest.sensors[0].frame_rate_hz
             time_s, label_time_s = frame_times(self._entry(clip).start_s, rate_hz, index)
             frame = dataclasses.replace(frame, time_s=time_s, label_time_s=label_time_s)
         return frame

@@ -33,7 +33,7 @@ import contextlib
 import functools
 import io
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
@@ -50,7 +50,7 @@ from simgen.vocab import OFFICIAL_CLASS
 
 if TYPE_CHECKING:
     from simgen.labels.labelled_frame import LabelledFrame
-    from simgen.scan.sensor_info import SensorInfo
+    from simgen.scan.sensor import Sensor
 
 WORLD_FRAME = "pitch"
 ALL_POINTS_TOPIC = "/simgen/points"
@@ -145,29 +145,20 @@ def _quaternion_xyzw(yaw_rad: float) -> dict:
     return {"x": 0.0, "y": 0.0, "z": float(np.sin(yaw_rad / 2)), "w": float(np.cos(yaw_rad / 2))}
 
 
-def sensor_rotation_matrix(pose: Sequence[float]) -> NDArray[np.float64]:
-    """(3, 3) sensor frame -> pitch frame of a sensor pose (x, y, z metres, roll, pitch, yaw degrees)."""
-    from simgen.scan.sensor_rig import sensor_rotation  # the scan stage is slow to import; only bags need it
-    from simgen.scenario import SensorPose
-
-    x, y, z, roll, pitch, yaw = pose
-    return sensor_rotation(SensorPose(x=x, y=y, z=z, roll=roll, pitch=pitch, yaw=yaw))
-
-
-def sensor_quaternion(pose: Sequence[float]) -> NDArray[np.float64]:
-    """(4,) x, y, z, w of a sensor pose (x, y, z metres, roll, pitch, yaw degrees): sensor frame -> pitch frame."""
+def sensor_quaternion(sensor: Sensor) -> NDArray[np.float64]:
+    """(4,) x, y, z, w of a sensor's rotation, sensor frame -> pitch frame."""
     from scipy.spatial.transform import Rotation  # scipy.spatial is slow to import; only bags need it
 
-    return Rotation.from_matrix(sensor_rotation_matrix(pose)).as_quat()
+    return Rotation.from_matrix(sensor.rotation).as_quat()
 
 
 def cloud_points(frame: Frame, mask: NDArray[np.bool_] | slice, stamp_ns: int, layout: PointLayout = SIMGEN_LAYOUT,
-                 pose: Sequence[float] | None = None) -> NDArray:
-    """The frame's points (those of `mask`) as a structured array of `layout`; `pose`: the sensor's,
-    for a layout in the sensor frame."""
+                 sensor: Sensor | None = None) -> NDArray:
+    """The frame's points (those of `mask`) as a structured array of `layout`; `sensor`: theirs, for a layout in
+    the sensor frame."""
     points = np.asarray(frame.points_m, np.float32)[mask]
     if layout.sensor_frame:
-        points = ((points.astype(np.float64) - np.asarray(pose[:3], np.float64)) @ sensor_rotation_matrix(pose)).astype(np.float32)
+        points = ((points.astype(np.float64) - sensor.origin_m) @ sensor.rotation).astype(np.float32)
     out = np.zeros(len(points), layout.dtype)
     out["x"], out["y"], out["z"] = points[:, 0], points[:, 1], points[:, 2]
     out["intensity"] = np.asarray(frame.intensity)[mask]
@@ -225,13 +216,13 @@ def markers_message(frame: Frame, stamp_ns: int) -> dict:
     return {"markers": markers}
 
 
-def tf_static_message(sensors: Sequence[dict], stamp_ns: int) -> dict:
+def tf_static_message(sensors: Sequence[Sensor], stamp_ns: int) -> dict:
     transforms = []
     for sensor in sensors:
-        qx, qy, qz, qw = sensor_quaternion(sensor["pose"]).tolist()
-        x, y, z = (float(v) for v in sensor["pose"][:3])
+        qx, qy, qz, qw = sensor_quaternion(sensor).tolist()
+        x, y, z = (float(v) for v in sensor.pose[:3])
         transforms.append({
-            "header": _header(stamp_ns), "child_frame_id": sensor["name"],
+            "header": _header(stamp_ns), "child_frame_id": sensor.name,
             "transform": {"translation": {"x": x, "y": y, "z": z}, "rotation": {"x": qx, "y": qy, "z": qz, "w": qw}},
         })
     return {"transforms": transforms}
@@ -240,12 +231,12 @@ def tf_static_message(sensors: Sequence[dict], stamp_ns: int) -> dict:
 class BagWriter:
     """A ROS 2 MCAP bag written frame by frame: `add(frame)` for each, then `finish()`.
 
-    `sensors` are manifest `sensors` entries (name, pose, frame_rate_hz, ...); `layout` the points'
+    `sensors`: the dataset's (`Sensor`: name, pose, ...); `layout` the points'
     PointCloud2 layout (XYZI_LAYOUT puts every point on one topic, for frames that keep no sensor per point).
     Every frame needs its `time_s` and `label_time_s`.
     """
 
-    def __init__(self, stream: BinaryIO, sensors: Sequence[dict], layout: PointLayout = SIMGEN_LAYOUT):
+    def __init__(self, stream: BinaryIO, sensors: Sequence[Sensor], layout: PointLayout = SIMGEN_LAYOUT):
         from mcap.well_known import SchemaEncoding
         from mcap.writer import Writer
         from mcap_ros2._dynamic import serialize_dynamic  # mcap-ros2-support's CDR encoder (its Writer cannot give channels metadata)
@@ -259,7 +250,7 @@ class BagWriter:
             text = typestore.generate_msgdef(name, ros_version=2)[0]
             self.schemas[name] = self.writer.register_schema(name, SchemaEncoding.ROS2, text.encode())
             self.encoders[name] = serialize_dynamic(name, text)[name]
-        self.sensors = sorted(sensors, key=lambda s: s["sensor_id"])
+        self.sensors = sorted(sensors, key=lambda s: s.sensor_id)
         self.layout = layout
         self.messages = 0
 
@@ -282,9 +273,9 @@ class BagWriter:
         if self.layout.per_sensor:
             sensor = np.asarray(frame.sensor)
             for info in self.sensors:
-                frame_id = info["name"] if self.layout.sensor_frame else WORLD_FRAME
-                points = cloud_points(frame, sensor == info["sensor_id"], stamp_ns, self.layout, info["pose"])
-                self._write(points_topic(info["name"]), SCHEMAS[0], cloud_message(points, stamp_ns, self.layout, frame_id), stamp_ns)
+                frame_id = info.name if self.layout.sensor_frame else WORLD_FRAME
+                points = cloud_points(frame, sensor == info.sensor_id, stamp_ns, self.layout, info)
+                self._write(points_topic(info.name), SCHEMAS[0], cloud_message(points, stamp_ns, self.layout, frame_id), stamp_ns)
         else:
             points = cloud_points(frame, slice(None), stamp_ns, self.layout)
             self._write(ALL_POINTS_TOPIC, SCHEMAS[0], cloud_message(points, stamp_ns, self.layout), stamp_ns)
@@ -314,7 +305,7 @@ class BagSummary:
     frames: int
 
 
-def write_bag(path: Path, frames: Iterable[Frame], sensors: Sequence[dict], layout: PointLayout = SIMGEN_LAYOUT) -> BagSummary:
+def write_bag(path: Path, frames: Iterable[Frame], sensors: Sequence[Sensor], layout: PointLayout = SIMGEN_LAYOUT) -> BagSummary:
     """Write `frames` (an iterable of `Frame`, consumed one at a time) to `path` atomically."""
     count = 0
     with atomic_path(path) as tmp, tmp.open("wb") as stream:
@@ -339,13 +330,13 @@ class McapClipStream:
     """One clip's bag, `<clip>.mcap`, written as its frames come (the dataset writer's stream for
     format mcap); its record's rows are its messages. `abort` leaves no file under the final name."""
 
-    def __init__(self, root: Path, clip: str, sensors: Sequence[SensorInfo]):
+    def __init__(self, root: Path, clip: str, sensors: Sequence[Sensor]):
         self.root, self.relative = Path(root), bag_path(clip)
         path = self.root / self.relative
         path.parent.mkdir(parents=True, exist_ok=True)
         self._files = contextlib.ExitStack()
         stream = self._files.enter_context(self._files.enter_context(atomic_path(path)).open("wb"))
-        self._bag = BagWriter(stream, [asdict(s) for s in sensors])
+        self._bag = BagWriter(stream, sensors)
 
     def add(self, frame: LabelledFrame) -> None:
         self._bag.add(labelled_to_frame(frame))
@@ -394,9 +385,9 @@ def boxes_of(message) -> tuple[NDArray[np.float32], NDArray[np.str_], NDArray[np
 class BagReader:
     """Frames of an `mcap` dataset (points grouped by sensor, in sensor order)."""
 
-    def __init__(self, files: DatasetFiles, sensors: Sequence[dict]):
+    def __init__(self, files: DatasetFiles, sensors: Sequence[Sensor]):
         self.files = files
-        self.sensors = sorted(sensors, key=lambda s: s["sensor_id"])
+        self.sensors = sorted(sensors, key=lambda s: s.sensor_id)
         self._clip = functools.lru_cache(maxsize=2)(self._load)
 
     def _load(self, clip: str) -> dict[str, list]:
@@ -409,7 +400,7 @@ class BagReader:
 
     def frame(self, clip: str, index: int) -> Frame:
         topics = self._clip(clip)
-        clouds = [(info["sensor_id"], topics.get(points_topic(info["name"]), [])) for info in self.sensors]
+        clouds = [(info.sensor_id, topics.get(points_topic(info.name), [])) for info in self.sensors]
         arrays = [(sensor, cloud_array(messages[index])) for sensor, messages in clouds]
         points = np.concatenate([a for _, a in arrays]) if arrays else np.zeros(0, SIMGEN_LAYOUT.dtype)
         header = clouds[0][1][index].header.stamp

@@ -115,6 +115,8 @@ BOXES = pa.schema(
     ]
 )
 
+#: The `sensors` table's columns of `Sensor.pose` (the rest are named as `Sensor.record`'s keys).
+SENSOR_POSE_COLUMNS = ("x", "y", "z", "roll_deg", "pitch_deg", "yaw_deg")
 SENSORS = pa.schema(
     [
         _field("sensor_id", pa.int32(), "index in the scenario's sensor list (points.sensor)"),

@@ -13,7 +13,6 @@ from __future__ import annotations
 import itertools
 import re
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -30,7 +29,7 @@ from simgen.vocab import TEAM_NAMES
 
 if TYPE_CHECKING:
     from simgen.labels.labelled_frame import LabelledFrame
-    from simgen.scan.sensor_info import SensorInfo
+    from simgen.scan.sensor import Sensor
 
 #: Clip ids become directory and file names: a leading letter, no '=' (not read as a hive partition).
 CLIP_ID = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
@@ -56,7 +55,7 @@ class ClipWriter:
     Use as a context manager: an exception inside removes the files still under temporary names.
     Frames must come in order from `first_frame`."""
 
-    def __init__(self, root: Path, format: str, clip: str, clip_index: int, sensors: Sequence[SensorInfo], first_frame: int = 0):
+    def __init__(self, root: Path, format: str, clip: str, clip_index: int, sensors: Sequence[Sensor], first_frame: int = 0):
         plugin = dataset_format(format)
         if not CLIP_ID.match(clip):
             raise UserError(f"clip id {clip!r}: use a letter, then letters, digits, '_', '.' or '-'")
@@ -105,7 +104,7 @@ class ClipWriter:
 
 
 def write_clip(
-    root: Path, format: str, frames: Iterable[LabelledFrame], sensors: Sequence[SensorInfo], clip_index: int
+    root: Path, format: str, frames: Iterable[LabelledFrame], sensors: Sequence[Sensor], clip_index: int
 ) -> ClipRecord:
     """Write one clip's frames (any iterable: a generator streams) under `root`, each file atomically;
     returns what `finish_dataset` needs."""
@@ -122,7 +121,7 @@ def write_clip(
 
 
 def finish_dataset(
-    root: Path, format: str, clips: Sequence[ClipRecord], sensors: Sequence[SensorInfo], scenario: Mapping, seed: int
+    root: Path, format: str, clips: Sequence[ClipRecord], sensors: Sequence[Sensor], scenario: Mapping, seed: int
 ) -> Manifest:
     """Write the format's dataset files (its `finish`: the ImageSets of KITTI and OpenPCDet, KITTI's
     placeholder images if `scenario["dataset"]["kitti_images"]`, Parquet's sensors and units tables),
@@ -151,7 +150,7 @@ def finish_dataset(
         dependencies=dependency_versions(),
         scenario=dict(scenario),
         seed=seed,
-        sensors=tuple(asdict(s) for s in sorted(sensors, key=lambda s: s.sensor_id)),
+        sensors=tuple(sorted(sensors, key=lambda s: s.sensor_id)),
         clips=tuple(
             ClipEntry(c.clip, c.clip_index, c.frames, c.points, c.boxes, "val" if c.clip_index in val else "train", c.start_s)
             for c in clips

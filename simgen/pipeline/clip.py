@@ -18,6 +18,7 @@ from simgen.labels.labelled_frame import LabelledFrame
 from simgen.motion.clip import MotionClip
 from simgen.render.frame import render_frame
 from simgen.render.world import World
+from simgen.scan.sensor import scenario_sensors
 from simgen.scan.sensor_rig import frame_rays
 from simgen.scenario import Scenario
 from simgen.scene.static import build_static_scene
@@ -64,7 +65,7 @@ def render_frames(
     world = World(clip, build_static_scene(scene.goals, scene.surroundings, scene.net_transmission))
     rate = scenario.scan.frame_rate_hz
     start = float(clip.time_s[0])
-    specs = scenario.sensor_specs()
+    sensors = scenario_sensors(scenario)
     # labels.size: track: one size per humanoid over the whole clip, whatever part of it this call renders
     sizes = (
         track_sizes(clip, start + (np.arange(frame_count(scenario, clip)) + 0.5) / rate)
@@ -81,7 +82,7 @@ def render_frames(
             # the previous frame's label time (the same floats as its own) to the end of this frame's sweep
             discontinuity = placed_between(clip, start + (chunk - 0.5) / rate, start + (chunk + 1) / rate)
         frame_start = start + index / rate
-        rays = frame_rays(scenario, specs, index, start)
+        rays = frame_rays(scenario.scan, sensors, index, start)
         rng = np.random.default_rng(np.random.SeedSequence([scenario.seed, clip_index, index]))
         snapshot_s = float(label_times[j]) if scenario.scan.timing == "snapshot" else None
         scan = render_frame(world, rays, frame_start, scenario.noise, rng, snapshot_s)

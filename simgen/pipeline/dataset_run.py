@@ -30,7 +30,7 @@ from simgen.scenario import Scenario
 def finish(root: Path, scenario: Scenario, records: list[dict]):
     """Write the manifest and the dataset card, then remove the run state."""
     from simgen.datasets import ClipRecord, finish_dataset
-    from simgen.scan.sensor_rig import sensor_infos
+    from simgen.scan.sensor import scenario_sensors
 
     for leftover in root.rglob("*.tmp-*"):  # of workers that died (a Ray task retried elsewhere)
         leftover.unlink()
@@ -38,7 +38,7 @@ def finish(root: Path, scenario: Scenario, records: list[dict]):
         root,
         scenario.dataset.format,
         [ClipRecord.from_dict(r) for r in sorted(records, key=lambda r: r["clip_index"])],
-        sensor_infos(scenario),
+        scenario_sensors(scenario),
         scenario.model_dump(mode="json"),
         scenario.seed,
     )

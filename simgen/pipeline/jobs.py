@@ -100,7 +100,7 @@ def run_shard(job: Job, progress: Progress) -> dict:
     from simgen.datasets.write import ClipWriter
     from simgen.motion.clip_io import read_clip_arrays
     from simgen.pipeline.clip import clip_name, render_frames
-    from simgen.scan.sensor_rig import sensor_infos
+    from simgen.scan.sensor import scenario_sensors
 
     scenario = Scenario.model_validate(job.scenario)
     root = Path(job.root)
@@ -115,7 +115,7 @@ def run_shard(job: Job, progress: Progress) -> dict:
         target.mkdir(parents=True, exist_ok=True)
     clip = read_clip_arrays(motion_path(root, job.clip_index))
     with ClipWriter(
-        target, target_format, clip_name(job.clip_index), job.clip_index, sensor_infos(scenario), first
+        target, target_format, clip_name(job.clip_index), job.clip_index, scenario_sensors(scenario), first
     ) as writer:
         for frame in render_frames(scenario, clip, job.clip_index, first, stop):
             writer.add(frame)
@@ -133,7 +133,7 @@ def run_assemble(job: Job, progress: Progress) -> dict:
     from simgen.datasets.write import ClipWriter
     from simgen.labels.statistics import LabelStatistics
     from simgen.pipeline.clip import clip_name
-    from simgen.scan.sensor_rig import sensor_infos
+    from simgen.scan.sensor import scenario_sensors
 
     scenario = Scenario.model_validate(job.scenario)
     root = Path(job.root)
@@ -159,7 +159,7 @@ def run_assemble(job: Job, progress: Progress) -> dict:
             labels.to_dict(),
         )
     else:
-        with ClipWriter(root, fmt, name, job.clip_index, sensor_infos(scenario)) as writer:
+        with ClipWriter(root, fmt, name, job.clip_index, scenario_sensors(scenario)) as writer:
             for first, _ in plan["shards"]:
                 for frame in labelled_frames(shard_root(root, job.clip_index, first), name):
                     writer.add(frame)

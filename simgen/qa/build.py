@@ -17,7 +17,6 @@ from simgen.qa.dataset import DatasetQA, dataset_qa
 from simgen.qa.integrity import Verification, verify_dataset
 from simgen.qa.pattern import HeadQA, sensor_qa
 from simgen.qa.report import Report, Section, Table
-from simgen.qa.sensors import sensor_spec
 from simgen.qa.tolerances import Tolerances
 
 PLOTS = "plots"
@@ -122,7 +121,7 @@ def pattern_sections(name: str, heads: list[HeadQA], out_dir: Path, tol: Toleran
 def pattern_report(preset: str, tol: Tolerances, out_dir: Path) -> Report:
     """Every head of a sensor preset against its official file."""
     sensor = sp.get_sensor(preset)
-    heads = sensor_qa(preset, sensor, tol.pattern)
+    heads = sensor_qa(preset, sensor.heads, tol.pattern)
     checks = tuple(c for h in heads for c in h.checks)
     return Report(f"Scan-pattern QA: {preset}", f"{sensor.description}; tolerances from {tol.source}.", checks,
                   tuple(pattern_sections(preset, heads, out_dir, tol)))
@@ -171,8 +170,8 @@ def dataset_report(dataset: Dataset, tol: Tolerances, out_dir: Path, max_frames:
     manifest = dataset.manifest
     checks: list[Check] = []
     sections: list[Section] = []
-    for preset in dict.fromkeys(s["preset"] for s in manifest.sensors):
-        heads = sensor_qa(preset, sensor_spec(preset, manifest.scenario), tol.pattern)
+    for preset, sensor in {s.preset: s for s in manifest.sensors}.items():
+        heads = sensor_qa(preset, sensor.heads, tol.pattern)
         checks += [c for h in heads for c in h.checks]
         sections += pattern_sections(preset, heads, out_dir, tol)
     qa = dataset_qa(dataset, tol.dataset, tol.labels, max_frames)

@@ -17,8 +17,8 @@ from numpy.typing import NDArray
 from simgen.datasets.reader import Dataset
 from simgen.qa.checks import Check
 from simgen.qa.label_checks import in_box
-from simgen.qa.sensors import SensorGeometry, sensor_geometry, view_angles
 from simgen.qa.tolerances import DatasetTolerances, LabelTolerances
+from simgen.scan.sensor import Sensor
 
 BINOMIAL_SIGMAS = 4.0  # the dropout check allows this many binomial standard deviations besides its tolerance
 GROUND_CLEARANCE_M = 0.05  # points lower than this inside a box are ground, not the humanoid
@@ -46,7 +46,7 @@ class HumanoidSamples:
 
 @dataclass(frozen=True)
 class DatasetQA:
-    sensors: tuple[SensorGeometry, ...]
+    sensors: tuple[Sensor, ...]
     counts: FrameCounts
     humanoids: HumanoidSamples
     intensity: NDArray[np.int64]  # (256,) points per intensity value, sampled frames
@@ -71,7 +71,7 @@ def frame_counts(dataset: Dataset, sampled_points: list[int]) -> FrameCounts:
     return FrameCounts(column["num_points"], column["shots"], column["dropped"], column["missed"])
 
 
-def _humanoid_points(frame, sensors: tuple[SensorGeometry, ...], margin_m: float) -> NDArray[np.int64]:
+def _humanoid_points(frame, sensors: tuple[Sensor, ...], margin_m: float) -> NDArray[np.int64]:
     """(H, sensors) points per humanoid and sensor (see the module docstring)."""
     counts = np.zeros((len(frame.boxes), len(sensors)), np.int64)
     if frame.instance_id is not None:
@@ -96,7 +96,7 @@ def humanoid_samples(dataset: Dataset, sample, sensors, margin_m: float) -> tupl
         points.append(len(frame.points_m))
         intensity += np.bincount(frame.intensity, minlength=256)
         counts = _humanoid_points(frame, sensors, margin_m)
-        rows += [(*view_angles(sensor, frame.boxes[:, :3]), counts[:, s]) for s, sensor in enumerate(sensors)]
+        rows += [(*sensor.view_angles(frame.boxes[:, :3]), counts[:, s]) for s, sensor in enumerate(sensors)]
     columns = [np.concatenate(c) for c in zip(*rows)] if rows else [np.zeros(0)] * 4
     samples = HumanoidSamples(columns[0], columns[1], columns[2].astype(bool), columns[3].astype(np.int64))
     return samples, intensity, points
@@ -110,7 +110,7 @@ def dataset_checks(dataset: Dataset, counts: FrameCounts, tol: DatasetTolerances
         reason = f"{dataset.format} keeps no shot counts"
         return checks + [Check("dataset", name, reason, "", None) for name in ("shots per frame", "dropout")]
     sensors = dataset.manifest.sensors
-    expected = sum(s["shots_per_s"] for s in sensors) / sensors[0]["frame_rate_hz"]
+    expected = sum(s.shots_per_s for s in sensors) / sensors[0].frame_rate_hz
     worst = float(np.max(np.abs(counts.shots - expected)) / expected)
     checks.append(Check("dataset", "shots per frame", f"{worst:.3%} from {expected:,.0f} at worst",
                         f"<= {tol.shots_per_frame_rel:.1%}", worst <= tol.shots_per_frame_rel))
@@ -126,8 +126,7 @@ def dataset_checks(dataset: Dataset, counts: FrameCounts, tol: DatasetTolerances
 
 def dataset_qa(dataset: Dataset, dtol: DatasetTolerances, ltol: LabelTolerances, max_frames: int) -> DatasetQA:
     """Counts of every frame, humanoid samples of at most `max_frames` frames, and the dataset checks."""
-    scenario = dataset.manifest.scenario
-    sensors = tuple(sensor_geometry(info, scenario) for info in dataset.manifest.sensors)
+    sensors = dataset.manifest.sensors
     sample = frame_sample(dataset, max_frames)
     humanoids, intensity, points = humanoid_samples(dataset, sample, sensors, ltol.box_margin_m)
     counts = frame_counts(dataset, points)

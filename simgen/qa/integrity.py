@@ -74,7 +74,7 @@ def clip_problems(dataset: Dataset, entry: ClipEntry, tol: LabelTolerances) -> t
     """Label and bookkeeping problems of one clip whose files are verified; and its box count."""
     first_row: dict[int, int] = {}
     locate = dataset.plugin.locator(dataset.root, entry, first_row)
-    frame_rate_hz = float(dataset.manifest.sensors[0]["frame_rate_hz"])
+    frame_rate_hz = dataset.manifest.sensors[0].frame_rate_hz
     problems, tracks, sizes, rows = [], [], [], 0
     before, frame = None, dataset.frame(entry.clip, 0) if entry.frames else None
     for index in range(entry.frames):

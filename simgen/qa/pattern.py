@@ -8,6 +8,7 @@ on a person-sized target (`scan_patterns.metrics`). A head whose kind Livox ship
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -124,9 +125,9 @@ def head_qa(subject: str, head: sp.HeadSpec, tol: PatternTolerances) -> HeadQA:
     )
 
 
-def sensor_qa(name: str, sensor: sp.SensorSpec, tol: PatternTolerances) -> list[HeadQA]:
+def sensor_qa(name: str, heads: Sequence[sp.HeadSpec], tol: PatternTolerances) -> list[HeadQA]:
     """Every head of a sensor, as `<name> head <i>`."""
-    return [head_qa(f"{name} head {i}", head, tol) for i, head in enumerate(sensor.heads)]
+    return [head_qa(f"{name} head {i}", head, tol) for i, head in enumerate(heads)]
 
 
 def window(shots: sp.Shots, seconds: float, fov: sp.FieldOfView) -> NDArray[np.float64]:

@@ -1,2 +1,2 @@
 """The scan: the scenario's sensors placed on the pitch (`sensor_rig`), turning scan-pattern shots into
-`Rays` (`rays`), and what a dataset records of each sensor (`sensor_info`)."""
+`Rays` (`rays`), and `Sensor` (`sensor`), the one description of a sensor from the scan to the datasets and QA."""

@@ -6,64 +6,28 @@ A sensor's clock starts at 0 when its clip's capture starts: frame k of a clip i
 
 from __future__ import annotations
 
-import functools
+from collections.abc import Sequence
 
 import numba
 import numpy as np
-from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 
 import scan_patterns
 from scan_patterns.shots import head_rotation
 from simgen.scan.rays import Rays
-from simgen.scan.sensor_info import SensorInfo
-from simgen.scenario import Scenario, SensorPose
+from simgen.scan.sensor import Sensor
+from simgen.scenario import ScanConfig
 
 
-def sensor_rotation(pose: SensorPose) -> NDArray[np.float64]:
-    """(3, 3) sensor frame -> pitch frame: yaw about z, then pitch (positive: up), then roll about x."""
-    return _euler_rotation(pose.yaw, pose.pitch, pose.roll).copy()
-
-
-@functools.lru_cache(maxsize=256)
-def _euler_rotation(yaw_deg: float, pitch_deg: float, roll_deg: float) -> NDArray[np.float64]:
-    return Rotation.from_euler("ZYX", [yaw_deg, -pitch_deg, roll_deg], degrees=True).as_matrix()
-
-
-def sensor_infos(scenario: Scenario) -> list[SensorInfo]:
-    """What the dataset's `sensors` table records of each sensor."""
-    infos = []
-    for i, (sensor, spec) in enumerate(zip(scenario.sensors, scenario.sensor_specs())):
-        p = sensor.pose
-        infos.append(
-            SensorInfo(
-                sensor_id=i,
-                name=sensor.name,
-                preset=sensor.preset,
-                pose=(p.x, p.y, p.z, p.roll, p.pitch, p.yaw),
-                heads=len(spec.heads),
-                shots_per_s=spec.shots_per_s * scenario.scan.density,
-                frame_rate_hz=scenario.scan.frame_rate_hz,
-                sweeps_per_frame=scenario.scan.sweeps_per_frame,
-                density=scenario.scan.density,
-            )
-        )
-    return infos
-
-
-def frame_rays(
-    scenario: Scenario, specs: list[scan_patterns.SensorSpec], frame_index: int, clip_start_s: float
-) -> Rays:
-    """The rays of every sensor's shots in frame `frame_index`, in the pitch frame (specs: `Scenario.sensor_specs()`),
+def frame_rays(scan: ScanConfig, sensors: Sequence[Sensor], frame_index: int, clip_start_s: float) -> Rays:
+    """The rays of every sensor's shots in frame `frame_index`, in the pitch frame (sensors: `scenario_sensors`),
     each with the sweep of the frame it belongs to (`scan.sweeps_per_frame` sweeps merged per frame)."""
-    scan = scenario.scan
     t0, t1 = scan_patterns.frame_window(frame_index, scan.frame_rate_hz)
-    heads = []  # (sensor index, head index, shots, head -> pitch rotation)
-    for i, (sensor, spec) in enumerate(zip(scenario.sensors, specs)):
-        to_pitch = sensor_rotation(sensor.pose)
-        for index, head in enumerate(spec.heads):
+    heads = []  # (sensor, head index, shots, head -> pitch rotation)
+    for sensor in sensors:
+        to_pitch = sensor.rotation
+        for index, head in enumerate(sensor.heads):
             shots = scan_patterns.head_shots(head, t0, t1, scan.density, index)
-            heads.append((i, index, shots, to_pitch @ head_rotation(head.yaw_deg, head.pitch_deg)))
+            heads.append((sensor, index, shots, to_pitch @ head_rotation(head.yaw_deg, head.pitch_deg)))
     n = sum(len(shots) for _, _, shots, _ in heads)
     rays = Rays(
         np.empty((n, 3)),
@@ -75,9 +39,7 @@ def frame_rays(
         np.empty(n, np.uint8),
     )
     start = 0
-    for i, index, shots, rotation in heads:
-        pose = scenario.sensors[i].pose
-        origin = np.array([pose.x, pose.y, pose.z])
+    for sensor, index, shots, rotation in heads:
         _fill_head(
             rays.origin_m,
             rays.direction,
@@ -88,9 +50,9 @@ def frame_rays(
             shots.dirs,
             shots.t_s,
             rotation,
-            origin,
+            sensor.origin_m,
             clip_start_s,
-            i,
+            sensor.sensor_id,
             index,
         )
         rays.sweep[start : start + len(shots)] = scan_patterns.sweep_index(

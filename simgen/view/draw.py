@@ -29,7 +29,7 @@ from simgen.scene.pitch import (
 
 if TYPE_CHECKING:
     from simgen.datasets.frame import Frame
-    from simgen.qa.sensors import SensorGeometry
+    from simgen.scan.sensor import Sensor
 
 COLOUR_RANGE = {"height": (-0.3, 2.2), "intensity": (0.0, 150.0)}  # metres; Livox diffuse reflectivity 0-150
 UNITS = {"height": "m", "intensity": ""}
@@ -92,7 +92,7 @@ def _even(pixels: float) -> int:
     return int(np.ceil(pixels / 2.0)) * 2
 
 
-def canvas_for(sensors: list[SensorGeometry], px_per_m: float) -> Canvas:
+def canvas_for(sensors: list[Sensor], px_per_m: float) -> Canvas:
     """The pitch and every sensor, with MARGIN_M round them."""
     xs = [-HALF_LENGTH_M, HALF_LENGTH_M, *(s.origin_m[0] for s in sensors)]
     ys = [-HALF_WIDTH_M, HALF_WIDTH_M, *(s.origin_m[1] for s in sensors)]
@@ -133,7 +133,7 @@ def pitch_lines(canvas: Canvas) -> list[NDArray[np.int32]]:
     return lines
 
 
-def background(canvas: Canvas, sensors: list[SensorGeometry]) -> NDArray[np.uint8]:
+def background(canvas: Canvas, sensors: list[Sensor]) -> NDArray[np.uint8]:
     """The picture every frame starts from: pitch lines, sensors, boresights, the side view's ground."""
     image = np.full((canvas.height, canvas.width, 3), BACKGROUND, np.uint8)
     image[:HEADER_PX] = 0

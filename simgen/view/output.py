@@ -19,7 +19,6 @@ import numpy as np
 from simgen.atomic import atomic_path
 from simgen.datasets.reader import Dataset
 from simgen.errors import UserError
-from simgen.qa.sensors import sensor_geometry
 from simgen.view.draw import Canvas, background, canvas_for, render_frame
 
 VIDEO_CODEC = "libx264"
@@ -60,7 +59,7 @@ def write_png(image: np.ndarray, path: Path) -> None:
 
 def clip_canvas(dataset: Dataset, px_per_m: float) -> tuple[Canvas, np.ndarray]:
     """The canvas and the background every frame of the dataset is drawn on."""
-    sensors = [sensor_geometry(info, dataset.manifest.scenario) for info in dataset.manifest.sensors]
+    sensors = list(dataset.manifest.sensors)
     canvas = canvas_for(sensors, px_per_m)
     return canvas, background(canvas, sensors)
 
@@ -73,7 +72,7 @@ def write_clip_view(
     frame_dir = out_dir / clip
     frame_dir.mkdir(parents=True, exist_ok=True)
     video = out_dir / f"{clip}.mp4"
-    fps = float(dataset.manifest.sensors[0]["frame_rate_hz"])
+    fps = dataset.manifest.sensors[0].frame_rate_hz
     pngs = []
     with atomic_suffixed(video) as tmp:
         encoder = imageio_ffmpeg.write_frames(

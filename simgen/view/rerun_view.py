@@ -24,14 +24,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from simgen.qa.sensors import sensor_geometry
 from simgen.view.draw import ARROW_M, HEADER_PX, Canvas, pitch_lines, point_colours
 from simgen.view.output import atomic_suffixed
 
 if TYPE_CHECKING:
     from simgen.datasets.frame import Frame
     from simgen.datasets.reader import Dataset
-    from simgen.qa.sensors import SensorGeometry
+    from simgen.scan.sensor import Sensor
 
 APPLICATION_ID = "simgen"
 FRUSTUM_RANGE_M = 20.0
@@ -54,7 +53,7 @@ def pitch_strips() -> list[NDArray[np.float64]]:
     return strips
 
 
-def frustum_strips(sensor: SensorGeometry) -> list[NDArray[np.float64]]:
+def frustum_strips(sensor: Sensor) -> list[NDArray[np.float64]]:
     """Per head, rays from the origin to its field of view's rim and the rim itself (sensor frame, metres)."""
     strips = []
     for boresight, half_deg in zip(sensor.boresights, sensor.half_fov_deg):
@@ -107,7 +106,7 @@ def log_frame(rec, frame: Frame, colouring: str) -> None:
     rec.log("world/headings", rr.Arrows3D(origins=boxes[:, :3], vectors=heading, colors=colours))
 
 
-def log_static(rec, sensors: list[SensorGeometry]) -> None:
+def log_static(rec, sensors: list[Sensor]) -> None:
     import rerun as rr
 
     rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
@@ -123,7 +122,7 @@ def write_recording(dataset: Dataset, clip: str, frames: range, path: Path, colo
     import rerun as rr
     from tqdm import tqdm
 
-    sensors = [sensor_geometry(info, dataset.manifest.scenario) for info in dataset.manifest.sensors]
+    sensors = list(dataset.manifest.sensors)
     rec = rr.RecordingStream(
         APPLICATION_ID, recording_id=f"{dataset.root.resolve().name}.{clip}", send_properties=False
     )

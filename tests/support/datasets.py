@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from scan_patterns import get_sensor
 from simgen.datasets.frame import frame_times
 from simgen.labels.boxes import FrameLabels
 from simgen.labels.labelled_frame import LabelledFrame
 from simgen.render.frame import ScanFrame
-from simgen.scan.sensor_info import SensorInfo
+from simgen.scan.sensor import Sensor
 from simgen.vocab import BALL, BALL_INSTANCE_ID, GROUND, OFFICIAL, PLAYER
 
 FRAME_RATE_HZ = 10.0
@@ -23,10 +24,18 @@ START_S = 12.0  # game time of every clip's frame 0
 SENSOR_M = np.array([0.0, -36.0, 4.0])
 
 
-def sensors() -> list[SensorInfo]:
+def sensors() -> list[Sensor]:
     return [
-        SensorInfo(
-            0, "mid100", "mid100-risley", (0.0, -36.0, 4.0, 0.0, -10.0, 90.0), 3, 150_000.0, FRAME_RATE_HZ, 1, 1.0
+        Sensor(
+            0,
+            "mid100",
+            "mid100-risley",
+            (0.0, -36.0, 4.0, 0.0, -10.0, 90.0),
+            get_sensor("mid100-risley").heads,
+            150_000.0,
+            FRAME_RATE_HZ,
+            1,
+            1.0,
         )
     ]
 

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from simgen.datasets.records import ClipRecord, FileRecord
     from simgen.datasets.verify import DatasetFiles, Problem
     from simgen.labels.labelled_frame import LabelledFrame
-    from simgen.scan.sensor_info import SensorInfo
+    from simgen.scan.sensor import Sensor
 
 #: Where box `i` of frame `k` of a clip is stored: (file, row), row as the format counts it.
 Locate = Callable[[int, int], tuple[str, int]]
@@ -69,7 +69,7 @@ class DatasetFormat(ABC):
     packable: ClassVar[bool] = False
 
     @abstractmethod
-    def stream(self, root: Path, clip: str, clip_index: int, sensors: Sequence[SensorInfo]) -> ClipStream:
+    def stream(self, root: Path, clip: str, clip_index: int, sensors: Sequence[Sensor]) -> ClipStream:
         """The writer of one clip under `root`."""
 
     @abstractmethod
@@ -84,7 +84,7 @@ class DatasetFormat(ABC):
         """Relative paths of the files `finish` writes once per dataset."""
         return set()
 
-    def finish(self, root: Path, clips: Sequence[ClipRecord], sensors: Sequence[SensorInfo], scenario: Mapping) -> list[FileRecord]:
+    def finish(self, root: Path, clips: Sequence[ClipRecord], sensors: Sequence[Sensor], scenario: Mapping) -> list[FileRecord]:
         """Write what needs every clip (or no clip), before the card and the manifest; their records."""
         return []
 
