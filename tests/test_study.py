@@ -18,7 +18,7 @@ from tests.support.tracking_clips import FULL_TRACKER
 from train.checkpoint import load_checkpoint
 from train.cli import main
 from train.fit import fit
-from train.study import TRACKER_CONFIGS
+from train.study.run import TRACKER_CONFIGS
 from train.tracking.config import load_tracker_configs
 
 pytestmark = pytest.mark.engine

@@ -13,15 +13,15 @@ from tests.support.tracking_clips import (
     make_tracklets,
     simulate_players,
 )
-from train.nms import nms_bev, nms_centre
-from train.study import TRACKER_CONFIGS
+from train.detector.nms import nms_bev, nms_centre
+from train.study.run import TRACKER_CONFIGS
+from train.study.tracklet_filter import TrackletFilter, apply_filter, choose_filters, filter_tracklets
 from train.tracking.ab3dmot import Ab3dmot
 from train.tracking.clip import track_clip
 from train.tracking.config import load_tracker_config, load_tracker_configs, make_tracker
 from train.tracking.diou_tracker import DiouTracker, DiouTrackerConfig
 from train.tracking.motion_model import PLAYER_KALMAN
 from train.tracking.types import Tracklets
-from train.tracklet_filter import TrackletFilter, apply_filter, choose_filters, filter_tracklets
 
 PLAYER = np.array([0.0, 0.0, 0.9, 0.6, 0.8, 1.8, 0.0])
 

@@ -14,14 +14,14 @@ from tests.support.tracking_clips import (
     make_tracklets,
     simulate_players,
 )
-from train.metrics.tracking import evaluate_tracking
-from train.study import TRACKER_CONFIGS
+from train.evaluation.tracking import evaluate_tracking
+from train.study.run import TRACKER_CONFIGS
+from train.study.tracklet_filter import TrackletFilter, apply_filter, choose_filters
 from train.tracking.ab3dmot import Ab3dmot
 from train.tracking.clip import track_clip
 from train.tracking.config import load_tracker_configs, make_tracker
 from train.tracking.diou_tracker import DiouTracker, DiouTrackerConfig
 from train.tracking.types import TrackedFrame, Tracklets
-from train.tracklet_filter import TrackletFilter, apply_filter, choose_filters
 
 PLAYER = np.array([0.0, 0.0, 0.9, 0.6, 0.8, 1.8, 0.0])
 
@@ -246,7 +246,7 @@ def test_filtered_flood_gives_the_full_tracker_its_place(flood):
 def test_a_player_the_engine_places_elsewhere_is_born_again(config):
     """A restart: the player vanishes at x = 0 and walks on from x = 30 m. No tracker links the two (a jump of
     30 m is beyond every association gate): the old track ends, the new place is a new birth, as the
-    study's ground truth counts it (`train.study.truth_frames`)."""
+    study's ground truth counts it (`train.study.run.truth_frames`)."""
     before = walker(0.0, 0.3, range(10))
     after = {f: boxes + [30.0, 0, 0, 0, 0, 0, 0] for f, boxes in walker(0.0, 0.3, range(10, 25)).items()}
     after = {f: boxes for f, boxes in after.items() if f >= 12}  # the detector's window no longer spans the jump
@@ -258,7 +258,7 @@ def test_a_player_the_engine_places_elsewhere_is_born_again(config):
 
 def test_the_ground_truth_starts_a_new_identity_at_a_placement():
     from train.data import Sample
-    from train.study import truth_frames
+    from train.study.run import truth_frames
 
     def sample(t: int, placed: list[bool]) -> Sample:
         return Sample(

@@ -50,7 +50,7 @@ from train.config import (
     load_config,
     parse_config,
 )
-from train.models.detector import Detector
+from train.detector.model import Detector
 from train.preflight import (
     MAX_SEEDS,
     NMS_BYTES_PER_PAIR,
@@ -830,8 +830,8 @@ import ctypes, gc, json, sys, threading, time
 import torch
 from train.config import parse_config
 from train.data import SampleSet, loader
-from train.losses import detection_loss
-from train.models.detector import build_detector
+from train.detector.losses import detection_loss
+from train.detector.model import build_detector
 
 
 def anonymous() -> int:

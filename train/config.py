@@ -182,7 +182,7 @@ class AnchorConfig(_Strict):
 
 
 class BoxCoderConfig(_Strict):
-    name: Literal["residual"] = "residual"  # SECOND's residual coding (train.models.box_coder)
+    name: Literal["residual"] = "residual"  # SECOND's residual coding (train.detector.box_coder)
 
 
 class HeadConfig(_Strict):
@@ -196,7 +196,7 @@ class HeadConfig(_Strict):
 
 
 class ModelConfig(_Strict):
-    """The detector's named parts, each built by its registry (train.models.registry)."""
+    """The detector's named parts, each built by its registry (train.detector.registry)."""
 
     pillar_encoder: PillarEncoderConfig = PillarEncoderConfig()
     backbone_2d: Backbone2dConfig = Backbone2dConfig()
