@@ -858,8 +858,9 @@ def watch() -> None:
 watcher = threading.Thread(target=watch)
 watcher.start()
 model = build_detector(config).train()
-samples = SampleSet(dataset, "train", config, draws=config.train.iterations * config.train.batch_size,
-assign=model.head.assigner) optimizer = torch.optim.AdamW(model.parameters(), lr=1e-3)
+draws = config.train.iterations * config.train.batch_size
+samples = SampleSet(dataset, "train", config, draws=draws, assign=model.head.assigner)
+optimizer = torch.optim.AdamW(model.parameters(), lr=1e-3)
 for batch in loader(samples, config.train.batch_size, 0, model.head.assigner.collate):
     loss = detection_loss(model(batch).float(), batch.targets, config.loss).total
     optimizer.zero_grad()
