@@ -14,7 +14,7 @@ import simgen.datasets
 from tests.support import ROOT
 from tests.support.detector import SMOKE, tiny_config
 from tests.support.hostile import run_main
-from tests.support.tracking_clips import FULL_TRACKER
+from tests.support.trackers import FULL_TRACKER
 from train.checkpoint import load_checkpoint
 from train.cli import main
 from train.fit import fit

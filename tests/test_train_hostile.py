@@ -62,7 +62,7 @@ from train.preflight import (
     parameter_counts,
     parse_seeds,
 )
-from train.tracking.config import MAX_TRACK_FRAMES
+from train.tracking.life_cycle import MAX_TRACK_FRAMES
 
 DETECTOR_CONFIGS = 300
 TRACKER_CONFIGS = 100
@@ -459,6 +459,7 @@ TRACKER_NUMBERS = [
     (("association", "dying_lower_bound"), -1.0, 1.0, False),
     (("life_cycle", "min_hits"), 1, MAX_TRACK_FRAMES, True),
     (("life_cycle", "max_misses"), 0, MAX_TRACK_FRAMES, True),
+    (("life_cycle", "tentative_max_misses"), 0, MAX_TRACK_FRAMES, True),
 ]
 
 

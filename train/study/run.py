@@ -48,8 +48,8 @@ from train.evaluation.hota import Hota, centre_hota, hota
 from train.evaluation.tracking import TrackingMetrics, evaluate_tracking
 from train.fit import CHECKPOINT_NAME, fit
 from train.study.tracklet_filter import FilterScore, TrackletFilter, apply_filter, choose_filters
-from train.tracking.clip import track_clip
-from train.tracking.config import TrackerConfig, load_tracker_configs, make_tracker
+from train.tracking.clip import make_tracker, track_clip
+from train.tracking.config import TrackerConfig, load_tracker_configs
 from train.tracking.types import GroundTruthFrame, TrackedFrame, Tracklets
 
 MODELS = ("single", "early", "late")  # the paper's Table 1 methods

@@ -25,8 +25,8 @@ from tqdm import tqdm
 
 from train.detector.nms import nms_bev, nms_centre
 from train.evaluation.tracking import evaluate_tracking
-from train.tracking.clip import track_clip
-from train.tracking.config import TrackerConfig, make_tracker
+from train.tracking.clip import make_tracker, track_clip
+from train.tracking.config import TrackerConfig
 from train.tracking.types import GroundTruthFrame, Tracklets
 
 
