@@ -26,9 +26,9 @@ sys.path.insert(0, str(ROOT))
 
 from train.config import load_config
 from train.data import SampleSet, collate, loader
-from train.losses import detection_loss
-from train.models.detector import build_detector
-from train.postprocess import postprocess
+from train.detector.losses import detection_loss
+from train.detector.model import build_detector
+from train.detector.postprocess import postprocess
 
 MODELS = ("single", "early", "late")
 

@@ -11,7 +11,7 @@ likely faster than AB3DMOT's per-track Python code and the ratio favours the bas
 for scale, the bare per-frame cost of an unpruned association: two 22 x 22 ``diou_3d`` matrices
 (tracklets at t-2 and t-1 against last frame's boxes) and one ``linear_sum_assignment``.
 
-The same clip's tracking scores (train.metrics, 3D IoU >= 0.25) are written too: the paper's
+The same clip's tracking scores (train.evaluation, 3D IoU >= 0.25) are written too: the paper's
 Table 2 ablation on synthetic data, every tracker of train/configs/tracking/. Writes
 benchmarks/results/tracking.md.
 
@@ -40,17 +40,20 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # this tree's packages, and tests.support's synthetic clips
 
 
+from tests.support.trackers import AB3DMOT, FULL_TRACKER, shipped_tracker
 from tests.support.tracking_clips import NOISY_DETECTOR, PlayersConfig, make_tracklets, simulate_players
+from train.evaluation.hota import hota
+from train.evaluation.tracking import evaluate_tracking
 from train.geometry import diou_3d
-from train.metrics.hota import hota
-from train.metrics.tracking import evaluate_tracking
-from train.study import TRACKER_CONFIGS
+from train.study.run import TRACKER_CONFIGS
 from train.tracking.ab3dmot import Ab3dmot
-from train.tracking.config import load_tracker_configs, make_tracker
-from train.tracking.diou_tracker import DiouTracker, DiouTrackerConfig
+from train.tracking.clip import make_tracker
+from train.tracking.config import load_tracker_configs
+from train.tracking.diou_tracker import DiouTracker
 from train.tracking.types import Tracklets
 
-WEIGHTS = DiouTrackerConfig().weights
+FULL, AB3DMOT_CONFIG = shipped_tracker(FULL_TRACKER), shipped_tracker(AB3DMOT)
+WEIGHTS = FULL.association.weights
 
 
 def baseline(tracklets: list[Tracklets], previous: list[np.ndarray]) -> None:
@@ -80,12 +83,12 @@ def main() -> None:
     previous = [clip.boxes[max(f - 1, 0)] for f in range(args.frames)]
 
     def ours() -> None:
-        tracker = DiouTracker()
+        tracker = DiouTracker(FULL)
         for t in tracklets:
             tracker.step(t)
 
     def ab3dmot() -> None:
-        tracker = Ab3dmot()
+        tracker = Ab3dmot(AB3DMOT_CONFIG)
         for t in tracklets:
             tracker.step(t)
 

@@ -53,9 +53,9 @@ sys.path.insert(0, str(ROOT))
 
 from train.config import parse_config
 from train.data import SampleSet, loader
+from train.detector.losses import detection_loss
+from train.detector.model import build_detector
 from train.fit import autocast
-from train.losses import detection_loss
-from train.models.detector import build_detector
 
 PACKAGES = ("simgen", "train", "scan_patterns")
 
@@ -132,8 +132,13 @@ import resource, sys, time
 import torch
 import simgen.datasets
 from train.checkpoint import load_checkpoint
-from train.evaluate import average_precisions, predict, visible_objects
-from train.models.detector import build_detector
+try:  # this tree's layout
+    from train.detector.inference import predict
+    from train.detector.model import build_detector
+    from train.evaluation.ap_table import average_precisions, visible_objects
+except ImportError:  # the baseline's flat modules (d2bfbe4)
+    from train.evaluate import average_precisions, predict, visible_objects
+    from train.models.detector import build_detector
 
 def cpu():
     own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)

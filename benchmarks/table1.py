@@ -22,9 +22,9 @@ sys.path.insert(0, str(ROOT))
 
 from train.checkpoint import load_checkpoint
 from train.config import load_config
-from train.evaluate import evaluate, mean_ap
+from train.detector.model import Detector
+from train.evaluation.ap_table import evaluate, mean_ap
 from train.fit import fit
-from train.models.detector import Detector
 
 ROWS = (("single", "x2"), ("late", "x2"), ("single", "x1"), ("early", "x1"), ("late", "x1"))
 LABELS = {"single": "Single Frame", "early": "Early Fusion", "late": "Late Fusion"}

@@ -15,8 +15,6 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 from pydantic import (
-    BaseModel,
-    ConfigDict,
     Field,
     ValidationError,
     ValidationInfo,
@@ -30,7 +28,7 @@ from scan_patterns.replay import OFFICIAL_FILES
 from scan_patterns.risley import FITTED
 from scan_patterns.rotors import FITS
 from simgen.datasets.formats import FORMATS, dataset_format, formats_where
-from simgen.validation import one_line, read_yaml, validate
+from simgen.validation import Strict, one_line, read_yaml, validate
 
 #: Colon-separated folders besides the scenario's own that a replay head's `file` may come from.
 PATTERN_DIRS_ENV = "SIMGEN_PATTERN_DIRS"
@@ -42,11 +40,7 @@ BYTES_PER_SHOT = 64  # the shot's ray: origin, direction, time, sensor, head
 BYTES_PER_RAY = 256  # each cast ray's hit record, candidates and temporaries, rounded up
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-
-class MotionConfig(_Strict):
+class MotionConfig(Strict):
     """How the Google Research Football engine plays and what is captured."""
 
     level: str = Field(
@@ -69,7 +63,7 @@ class MotionConfig(_Strict):
     )
 
 
-class SceneConfig(_Strict):
+class SceneConfig(Strict):
     """What stands on and around the pitch besides the humanoids and the ball."""
 
     goals: bool = Field(True, description="Both goals: posts, crossbar and net.")
@@ -79,7 +73,7 @@ class SceneConfig(_Strict):
     )
 
 
-class SensorPose(_Strict):
+class SensorPose(Strict):
     """Where a sensor stands in the pitch frame: metres, and degrees (roll about x, pitch about y
     (positive: looking up), yaw about z (0: looking along +x, 90: along +y)), applied yaw, pitch, roll."""
 
@@ -91,7 +85,7 @@ class SensorPose(_Strict):
     yaw: float = Field(90.0, ge=-360, le=360)
 
 
-class SensorConfig(_Strict):
+class SensorConfig(Strict):
     """One LiDAR: a scan-pattern preset (see `simgen pattern --help`, or `custom_sensors`) at a pose."""
 
     name: str = Field("mid100", pattern=r"^[A-Za-z0-9_.-]+$")
@@ -99,7 +93,7 @@ class SensorConfig(_Strict):
     pose: SensorPose = SensorPose()
 
 
-class ScanConfig(_Strict):
+class ScanConfig(Strict):
     """How the sensors' shots are grouped into frames."""
 
     frame_rate_hz: float = Field(10.0, gt=0.0, le=100.0, description="Frames per second.")
@@ -118,7 +112,7 @@ class ScanConfig(_Strict):
     )
 
 
-class LabelsConfig(_Strict):
+class LabelsConfig(Strict):
     """How the boxes are drawn (simgen.labels.boxes)."""
 
     size: Literal["enclosing", "track"] = Field(
@@ -128,7 +122,7 @@ class LabelsConfig(_Strict):
     )
 
 
-class DatasetConfig(_Strict):
+class DatasetConfig(Strict):
     """What `simgen generate` writes."""
 
     clips: int = Field(1, ge=1, le=100_000, description="Clips: motion sequences of one seed each.")
@@ -146,7 +140,7 @@ class DatasetConfig(_Strict):
         return self
 
 
-class NoiseConfig(_Strict):
+class NoiseConfig(Strict):
     """The sensor's imperfections (section `noise`; used by simgen.render.noise). Defaults: the Livox Mid-40
     datasheet."""
 
@@ -178,7 +172,7 @@ class NoiseConfig(_Strict):
         return self
 
 
-class RisleyParamsConfig(_Strict):
+class RisleyParamsConfig(Strict):
     """`params` of a `risley` head: a fitted set of optics (`optics`, default the Mid-40's) and
     overrides of its two prisms (scan_patterns.RisleyParams)."""
 
@@ -191,7 +185,7 @@ class RisleyParamsConfig(_Strict):
     phase_deg: tuple[Annotated[float, Field(ge=-360, le=360)], Annotated[float, Field(ge=-360, le=360)]] | None = None
 
 
-class RoseParamsConfig(_Strict):
+class RoseParamsConfig(Strict):
     """`params` of a `rose` head (scan_patterns.RoseParams)."""
 
     k: float | None = Field(None, gt=0, le=1000)
@@ -200,13 +194,13 @@ class RoseParamsConfig(_Strict):
     theta0_hz: float | None = Field(None, ge=-1e6, le=1e6)
 
 
-class RotorsParamsConfig(_Strict):
+class RotorsParamsConfig(Strict):
     """`params` of a `rotors` head (scan_patterns.RotorParams)."""
 
     fit: Literal[tuple(FITS)] | None = Field(None, description="Livox table whose stored rotors fit to use.")
 
 
-class ReplayParamsConfig(_Strict):
+class ReplayParamsConfig(Strict):
     """`params` of a `replay` head: `file`, an official recording (mid40, mid70, avia, horizon, tele, hap,
     mid360) or a .npz / .csv file
     in the scenario's folder or a folder of $SIMGEN_PATTERN_DIRS."""
@@ -243,7 +237,7 @@ _PARAMS = {
 }
 
 
-class HeadConfig(_Strict):
+class HeadConfig(Strict):
     """One head of a custom sensor: a pattern (or `like`: a preset whose first head it starts from) and overrides."""
 
     like: str | None = Field(None, max_length=64, description="Sensor preset whose first head this one starts from.")
@@ -294,7 +288,7 @@ class HeadConfig(_Strict):
         return {key: value for key, value in handler(self).items() if value is not None}
 
 
-class CustomSensorConfig(_Strict):
+class CustomSensorConfig(Strict):
     """A sensor preset of this scenario (scan_patterns.make_sensor): a name no built-in preset has, and its heads."""
 
     name: str = Field(..., pattern=r"^[A-Za-z0-9_.-]+$", max_length=64)
@@ -312,7 +306,7 @@ class CustomSensorConfig(_Strict):
         return scan_patterns.make_sensor(self.model_dump())
 
 
-class Scenario(_Strict):
+class Scenario(Strict):
     """A whole scenario file."""
 
     name: str = Field(..., pattern=r"^[A-Za-z0-9_.-]+$", max_length=128, description="Short name, used in outputs.")

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import TypeVar
 
 import yaml
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError
 
 from simgen.errors import UserError
 
@@ -25,6 +25,12 @@ Model = TypeVar("Model", bound=BaseModel)
 MAX_YAML_BYTES = 1 << 20  # 1 MiB: our largest YAML file is under 4 KiB
 MAX_YAML_DEPTH = 32  # nested mappings and lists; a scenario needs 7
 MAX_YAML_NODES = 100_000  # scalars, mappings and lists once aliases are expanded
+
+class Strict(BaseModel):
+    """Base of every validated file's models: unknown keys, NaN and infinity refused; frozen once read."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
 
 _Loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml when installed: 1 MiB parses in ~0.1 s
 

@@ -31,7 +31,7 @@ def test_reading_datasets_and_training_need_no_writer_libraries():
         f"    def find_spec(self, name, path, target=None):\n"
         f"        if name.split('.')[0] in {blocked!r}: raise ImportError('blocked: ' + name)\n"
         "sys.meta_path.insert(0, Block())\n"
-        "import simgen.datasets, train.cli, train.study\n"
+        "import simgen.datasets, train.cli, train.study.run\n"
         "print('imported')\n"
     )
     result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT)

@@ -1,4 +1,4 @@
-"""KITTI's AP (train.metrics.detection): perfect detections, hand cases worked by KITTI's official rule, matching.
+"""KITTI's AP (train.evaluation.detection): perfect detections, hand cases worked by KITTI's official rule, matching.
 
 The rotated IoU underneath is tested against shapely in test_geometry.py.
 """
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from train.metrics.detection import FrameBoxes, average_precision, detection_ap, match_frame
+from train.evaluation.detection import FrameBoxes, average_precision, detection_ap, match_frame
 
 
 def boxes(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -134,7 +134,7 @@ def test_the_decomposition_names_the_error_that_costs_the_most():
     """Ten labelled players 3 m apart; eight found 0.3 m off centre, otherwise exact (3D IoU 0.33: false
     positives), two missed, one of them invisible. Fixing the centre gives the AP of exact detections;
     size, heading and z fix nothing; the misses stay."""
-    from train.metrics.decomposition import decompose
+    from train.evaluation.decomposition import decompose
 
     truth = np.array([[3.0 * i, 0.0, 0.9, 0.6, 0.6, 1.8, 0.1 * i] for i in range(10)], np.float32)
     found = truth[:8].copy()

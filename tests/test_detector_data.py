@@ -10,8 +10,8 @@ import torch
 import simgen.datasets
 from tests.support.detector import smoke_dataset, tiny_config
 from train.data import Sample, augment, crop, load_sample, model_points, pillar_cells
-from train.models.box_coder import apply_direction, decode, direction_bin, encode
-from train.models.detector import build_detector
+from train.detector.box_coder import apply_direction, decode, direction_bin, encode
+from train.detector.model import build_detector
 
 
 @pytest.fixture(scope="module")
@@ -165,13 +165,13 @@ def test_anchor_targets():
 
 
 def test_the_data_layer_does_not_import_the_models():
-    """train.data hands samples to the head's target assigner; it never imports train.models (no import cycle)."""
+    """train.data hands samples to the head's target assigner; it never imports train.detector (no import cycle)."""
     import subprocess
     import sys
 
     from tests.support import ROOT
 
-    code = "import sys, train.data; print(sorted(m for m in sys.modules if m.startswith('train.models')))"
+    code = "import sys, train.data; print(sorted(m for m in sys.modules if m.startswith('train.detector')))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True)
     assert done.stdout.strip() == "[]"
 

@@ -10,11 +10,11 @@ from tests.support.detector import tiny_config
 from train.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from train.config import load_config, parse_config
 from train.data import Encoded, Sample, collate, encode_sample
-from train.losses import detection_loss
-from train.models.detector import build_detector
-from train.models.fusion import LateFusion
-from train.nms import nms_bev
-from train.postprocess import postprocess
+from train.detector.fusion import LateFusion
+from train.detector.losses import detection_loss
+from train.detector.model import build_detector
+from train.detector.nms import nms_bev
+from train.detector.postprocess import postprocess
 
 
 def _batch(config, model, samples=2):
@@ -140,7 +140,7 @@ def test_every_part_name_a_config_allows_has_a_builder():
     from typing import get_args
 
     from train.config import Backbone2dConfig, BoxCoderConfig, HeadConfig, PillarEncoderConfig
-    from train.models.registry import BACKBONES_2D, BOX_CODERS, FUSIONS, HEADS, PILLAR_ENCODERS
+    from train.detector.registry import BACKBONES_2D, BOX_CODERS, FUSIONS, HEADS, PILLAR_ENCODERS
 
     def names(section) -> set[str]:
         return set(get_args(section.model_fields["name"].annotation))
@@ -236,7 +236,7 @@ def test_scaled_inputs_bring_every_decoration_to_unit_size():
 def test_the_sparse_first_convolution_equals_the_dense_one(stride, kernel):
     """Pillars scattered into zeros and convolved, against the convolution from the pillars alone: the same
     values (to float32 rounding) and the same gradients for the pillars' features and the weights."""
-    from train.models.sparse_canvas import SparseCanvas, sparse_conv2d
+    from train.detector.sparse_canvas import SparseCanvas, sparse_conv2d
 
     rng = np.random.default_rng(stride * 10 + kernel)
     canvases, rows, cols, channels = 3, 17, 12, 5

@@ -1,4 +1,4 @@
-"""The val pass's streamed inference (train.streaming) against the model's own forward, window by window."""
+"""The val pass's streamed inference (train.detector.streaming) against the model's own forward, window by window."""
 
 import numpy as np
 import pytest
@@ -6,10 +6,10 @@ import torch
 
 from tests.support.detector import tiny_config
 from train.data import Sample, collate, encode_sample
-from train.models.detector import build_detector
-from train.models.folding import fold_batchnorm
-from train.postprocess import postprocess
-from train.streaming import fused_features, stream
+from train.detector.folding import fold_batchnorm
+from train.detector.model import build_detector
+from train.detector.postprocess import postprocess
+from train.detector.streaming import fused_features, stream
 
 
 def _windows(config, clips=("a", "b"), frames=4):

@@ -14,11 +14,11 @@ import simgen.datasets
 from tests.support import ROOT
 from tests.support.detector import SMOKE, tiny_config
 from tests.support.hostile import run_main
-from tests.support.tracking_clips import FULL_TRACKER
+from tests.support.trackers import FULL_TRACKER
 from train.checkpoint import load_checkpoint
 from train.cli import main
 from train.fit import fit
-from train.study import TRACKER_CONFIGS
+from train.study.run import TRACKER_CONFIGS
 from train.tracking.config import load_tracker_configs
 
 pytestmark = pytest.mark.engine

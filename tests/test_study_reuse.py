@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from simgen.scenario import load_scenario
 from tests.support import ROOT
-from train.study import StudyDataset, _same_data
+from train.study.run import StudyDataset, _same_data
 
 PAPER_X1 = ROOT / "scenarios" / "paper_x1.yaml"
 

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
+from tests.support.trackers import AB3DMOT, BIRTH_DEATH, DIOU, FULL_TRACKER, shipped_tracker
 from tests.support.tracking_clips import (
     FLOOD,
-    FULL_TRACKER,
     MEDIUM_NOISE,
     NOISY_DETECTOR,
     DetectionNoise,
@@ -14,14 +14,14 @@ from tests.support.tracking_clips import (
     make_tracklets,
     simulate_players,
 )
-from train.metrics.tracking import evaluate_tracking
-from train.study import TRACKER_CONFIGS
+from train.evaluation.tracking import evaluate_tracking
+from train.study.run import TRACKER_CONFIGS
+from train.study.tracklet_filter import TrackletFilter, apply_filter, choose_filters
 from train.tracking.ab3dmot import Ab3dmot
-from train.tracking.clip import track_clip
-from train.tracking.config import load_tracker_configs, make_tracker
-from train.tracking.diou_tracker import DiouTracker, DiouTrackerConfig
+from train.tracking.clip import make_tracker, track_clip
+from train.tracking.config import load_tracker_configs
+from train.tracking.diou_tracker import DiouTracker
 from train.tracking.types import TrackedFrame, Tracklets
-from train.tracklet_filter import TrackletFilter, apply_filter, choose_filters
 
 PLAYER = np.array([0.0, 0.0, 0.9, 0.6, 0.8, 1.8, 0.0])
 
@@ -50,19 +50,20 @@ def ids_over_time(out: list[TrackedFrame]) -> list[list[int]]:
 def test_new_trajectories_are_output_after_three_consecutive_frames():
     flicker = walker(0.0, 0.3, range(2))  # two frames, then gone
     steady = walker(20.0, 0.3, range(5, 12))
-    out = run(DiouTracker(), frames_of(flicker, steady, n_frames=12))
+    out = run(DiouTracker(shipped_tracker(FULL_TRACKER)), frames_of(flicker, steady, n_frames=12))
     assert ids_over_time(out) == [[]] * 7 + [[1]] * 5
 
 
 def test_a_confirmed_trajectory_back_fills_its_first_two_frames_from_its_tracklet():
     steady = walker(20.0, 0.3, range(5, 12))
-    out = track_clip(DiouTracker(), frames_of(steady, n_frames=12))
+    out = track_clip(DiouTracker(shipped_tracker(FULL_TRACKER)), frames_of(steady, n_frames=12))
     assert ids_over_time(out) == [[]] * 5 + [[0]] * 7
     np.testing.assert_array_equal(out[5].boxes[0], steady[7][0])  # the confirming tracklet's box at t-2
     np.testing.assert_array_equal(out[6].boxes[0], steady[7][1])  # and at t-1
-    online = run(DiouTracker(), frames_of(steady, n_frames=12))
+    online = run(DiouTracker(shipped_tracker(FULL_TRACKER)), frames_of(steady, n_frames=12))
     assert len(online[7].backfill) == 2 and ids_over_time(online)[5:7] == [[], []]
-    no_backfill = track_clip(DiouTracker(DiouTrackerConfig(backfill=False)), frames_of(steady, n_frames=12))
+    config = shipped_tracker(FULL_TRACKER, life_cycle={"backfill": False})
+    no_backfill = track_clip(DiouTracker(config), frames_of(steady, n_frames=12))
     assert ids_over_time(no_backfill) == [[]] * 7 + [[0]] * 5
 
 
@@ -70,18 +71,18 @@ def test_a_track_scores_the_mean_of_its_matched_tracklets():
     player = walker(0.0, 0.3, range(8))
     scores = [0.9, 0.3, 0.6, 0.2, 0.8, 0.8, 0.4, 0.4]
     frames = [Tracklets(player[f][None], [scores[f]]) for f in range(8)]
-    out = track_clip(DiouTracker(), frames)
+    out = track_clip(DiouTracker(shipped_tracker(FULL_TRACKER)), frames)
     assert out[0].scores.tolist() == out[1].scores.tolist() == out[2].scores.tolist() == [pytest.approx(0.6)]
     for f in range(3, 8):
         assert out[f].scores[0] == pytest.approx(np.mean(scores[: f + 1]))
-    ab = track_clip(Ab3dmot(), [Tracklets(player[f][None], [scores[f]]) for f in range(8)])
+    ab = track_clip(Ab3dmot(shipped_tracker(AB3DMOT)), [Tracklets(player[f][None], [scores[f]]) for f in range(8)])
     assert ab[4].scores[0] == pytest.approx(np.mean(scores[:5]))
 
 
 def test_dying_trajectory_comes_back_within_six_frames():
     gap = set(range(10, 16))  # 6 missed frames
     player = {f: b for f, b in walker(0.0, 0.3, range(30)).items() if f not in gap}
-    out = run(DiouTracker(), frames_of(player, n_frames=30))
+    out = run(DiouTracker(shipped_tracker(FULL_TRACKER)), frames_of(player, n_frames=30))
     assert ids_over_time(out)[2:] == [[0]] * 28
     # While dying it is output where the Kalman filter carries it: on the walker's line.
     for f in sorted(gap):
@@ -91,14 +92,14 @@ def test_dying_trajectory_comes_back_within_six_frames():
 def test_dying_trajectory_ends_after_six_frames():
     gap = set(range(10, 17))  # 7 missed frames
     player = {f: b for f, b in walker(0.0, 0.3, range(30)).items() if f not in gap}
-    out = run(DiouTracker(), frames_of(player, n_frames=30))
+    out = run(DiouTracker(shipped_tracker(FULL_TRACKER)), frames_of(player, n_frames=30))
     assert ids_over_time(out)[16] == [] and ids_over_time(out)[17:19] == [[], []]
     assert ids_over_time(out)[19:] == [[1]] * 11
 
 
 def test_without_birth_and_death_tracklets_are_output_at_once_and_end_at_once():
     player = {f: b for f, b in walker(0.0, 0.3, range(12)).items() if f != 6}
-    out = run(DiouTracker(DiouTrackerConfig(birth_death=False, split=False)), frames_of(player, n_frames=12))
+    out = run(DiouTracker(shipped_tracker(DIOU)), frames_of(player, n_frames=12))
     assert ids_over_time(out) == [[0]] * 6 + [[]] + [[1]] * 5
 
 
@@ -125,7 +126,7 @@ def meeting_tracklets(fuse: bool) -> tuple[list[Tracklets], np.ndarray]:
 
 def test_split_keeps_both_players_through_a_long_meeting():
     frames, _ = meeting_tracklets(fuse=True)
-    out = run(DiouTracker(), frames)
+    out = run(DiouTracker(shipped_tracker(FULL_TRACKER)), frames)
     first = {int(i): b for i, b in zip(out[5].ids, out[5].boxes)}
     left_id = min(first, key=lambda i: first[i][0])
     for f in range(5, len(frames)):
@@ -134,7 +135,7 @@ def test_split_keeps_both_players_through_a_long_meeting():
         assert left[0] < out[f].boxes[out[f].ids != left_id][0][0]  # the left player stays left
     np.testing.assert_allclose(out[-1].boxes[np.argsort(out[-1].boxes[:, 0]), 0], [-4.0, 4.0], atol=1e-9)
 
-    unsplit = run(DiouTracker(DiouTrackerConfig(split=False)), frames)
+    unsplit = run(DiouTracker(shipped_tracker(BIRTH_DEATH)), frames)
     assert max(max(o.ids, default=0) for o in unsplit) >= 2  # one of them died and came back new
 
 
@@ -142,7 +143,7 @@ def test_exact_tracklets_give_no_id_switch_over_a_whole_clip():
     clip = simulate_players(PlayersConfig(n_frames=300, meetings=3, crossings=3), np.random.default_rng(1))
     assert any(e.kind == "meeting" for e in clip.encounters)
     tracklets = make_tracklets(clip, DetectionNoise(), np.random.default_rng(0))
-    out = run(DiouTracker(), tracklets)
+    out = run(DiouTracker(shipped_tracker(FULL_TRACKER)), tracklets)
     # From frame 2 on, every player is output in every frame, always under the same id.
     for frame, truth in zip(out[2:], clip.boxes[2:]):
         order = np.argsort(frame.ids)
@@ -155,7 +156,7 @@ def test_exact_tracklets_give_no_id_switch_over_a_whole_clip():
 def test_ab3dmot_life_cycle():
     late = walker(10.0, 0.3, range(5, 20))
     player = {f: b for f, b in walker(0.0, 0.3, range(20)).items() if f not in (8, 12, 13)}
-    out = run(Ab3dmot(), frames_of(player, late, n_frames=20))
+    out = run(Ab3dmot(shipped_tracker(AB3DMOT)), frames_of(player, late, n_frames=20))
     ids = ids_over_time(out)
     assert ids[:3] == [[0]] * 3  # every track is output in the first 3 frames of a clip
     assert ids[5:7] == [[0]] * 2 and ids[7] == [0, 1]  # the late one after 3 hits
@@ -169,16 +170,16 @@ def test_ab3dmot_life_cycle():
 def ablation():
     """IDS, FRAG and sAMOTA of each tracker over two noisy clips."""
     configs = {
-        "diou": DiouTrackerConfig(birth_death=False, split=False),
-        "birth_death": DiouTrackerConfig(split=False),
-        "split": DiouTrackerConfig(),
+        "diou": shipped_tracker(DIOU),
+        "birth_death": shipped_tracker(BIRTH_DEATH),
+        "split": shipped_tracker(FULL_TRACKER),
     }
     clips = [simulate_players(PlayersConfig(n_frames=300), np.random.default_rng(seed)) for seed in (0, 1)]
     tracklets = [make_tracklets(c, NOISY_DETECTOR, np.random.default_rng(100 + i)) for i, c in enumerate(clips)]
     truth = [c.frames() for c in clips]
     results = {}
     for name, config in list(configs.items()) + [("ab3dmot", None)]:
-        out = [run(Ab3dmot() if config is None else DiouTracker(config), t) for t in tracklets]
+        out = [run(Ab3dmot(shipped_tracker(AB3DMOT)) if config is None else DiouTracker(config), t) for t in tracklets]
         metrics = evaluate_tracking(truth, out)
         results[name] = (metrics.best.ids, metrics.best.frag, metrics.samota)
     return results
@@ -246,7 +247,7 @@ def test_filtered_flood_gives_the_full_tracker_its_place(flood):
 def test_a_player_the_engine_places_elsewhere_is_born_again(config):
     """A restart: the player vanishes at x = 0 and walks on from x = 30 m. No tracker links the two (a jump of
     30 m is beyond every association gate): the old track ends, the new place is a new birth, as the
-    study's ground truth counts it (`train.study.truth_frames`)."""
+    study's ground truth counts it (`train.study.run.truth_frames`)."""
     before = walker(0.0, 0.3, range(10))
     after = {f: boxes + [30.0, 0, 0, 0, 0, 0, 0] for f, boxes in walker(0.0, 0.3, range(10, 25)).items()}
     after = {f: boxes for f, boxes in after.items() if f >= 12}  # the detector's window no longer spans the jump
@@ -258,7 +259,7 @@ def test_a_player_the_engine_places_elsewhere_is_born_again(config):
 
 def test_the_ground_truth_starts_a_new_identity_at_a_placement():
     from train.data import Sample
-    from train.study import truth_frames
+    from train.study.run import truth_frames
 
     def sample(t: int, placed: list[bool]) -> Sample:
         return Sample(

@@ -1,4 +1,4 @@
-"""train.metrics: CLEAR MOT, AB3DMOT's averages, HOTA and the KITTI export on hand-worked clips.
+"""train.evaluation: CLEAR MOT, AB3DMOT's averages, HOTA and the KITTI export on hand-worked clips.
 
 Boxes are unit cubes: one on the object gives IoU 1, one shifted by half a metre along x gives
 IoU 0.5 / 1.5 = 1/3, one 10 m away gives 0.
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from simgen.datasets.kitti import parse_labels
+from train.evaluation.hota import centre_hota, centre_similarity, hota
+from train.evaluation.kitti import write_kitti_tracking
+from train.evaluation.tracking import evaluate_tracking, recall_thresholds, switches_and_fragments
 from train.geometry import iou_3d_pairs
-from train.metrics.hota import centre_hota, centre_similarity, hota
-from train.metrics.kitti import write_kitti_tracking
-from train.metrics.tracking import evaluate_tracking, recall_thresholds, switches_and_fragments
 from train.tracking.types import GroundTruthFrame, TrackedFrame
 
 CUBE = np.array([0.0, 0.0, 0.5, 1.0, 1.0, 1.0, 0.0])

@@ -111,12 +111,17 @@ def test_match_keeps_pairs_at_or_above_the_bound_and_maximises_the_margin():
 
 
 def test_life_cycle_births_and_deaths():
-    rules = LifeCycleConfig(min_hits=3, max_misses=2, tentative_max_misses=0)
+    rules = LifeCycleConfig(birth_death=True, min_hits=3, max_misses=2, tentative_max_misses=0)
     hits, misses = np.array([1, 2, 5, 5]), np.array([0, 0, 1, 2])
     hits, misses = life_cycle.count_frame(hits, misses, np.array([False, True, False, False]))
     assert hits.tolist() == [1, 3, 5, 5] and misses.tolist() == [1, 0, 2, 3]
     assert life_cycle.confirmed(hits, rules).tolist() == [False, True, True, True]
     assert life_cycle.survives(hits, misses, rules).tolist() == [False, True, True, False]
+    ab3dmot = rules.model_copy(update={"tentative_max_misses": 2})  # AB3DMOT: tentative tracks live as long
+    assert life_cycle.survives(hits, misses, ab3dmot).tolist() == [True, True, True, False]
+    without = rules.model_copy(update={"birth_death": False})  # every track output at once, ended by a miss
+    assert life_cycle.confirmed(np.array([1, 2]), without).all()
+    assert life_cycle.survives(hits, misses, without).tolist() == [False, True, False, False]
 
 
 # Split

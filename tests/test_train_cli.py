@@ -11,7 +11,7 @@ import yaml
 from tests.support import ROOT
 from tests.support.detector import smoke_dataset, tiny_config
 from train.cli import main
-from train.detections import read_tracklets
+from train.detector.detections import read_tracklets
 
 
 def run_train(*args: object) -> subprocess.CompletedProcess:

@@ -50,7 +50,7 @@ from train.config import (
     load_config,
     parse_config,
 )
-from train.models.detector import Detector
+from train.detector.model import Detector
 from train.preflight import (
     MAX_SEEDS,
     NMS_BYTES_PER_PAIR,
@@ -62,7 +62,7 @@ from train.preflight import (
     parameter_counts,
     parse_seeds,
 )
-from train.tracking.config import MAX_TRACK_FRAMES
+from train.tracking.life_cycle import MAX_TRACK_FRAMES
 
 DETECTOR_CONFIGS = 300
 TRACKER_CONFIGS = 100
@@ -459,6 +459,7 @@ TRACKER_NUMBERS = [
     (("association", "dying_lower_bound"), -1.0, 1.0, False),
     (("life_cycle", "min_hits"), 1, MAX_TRACK_FRAMES, True),
     (("life_cycle", "max_misses"), 0, MAX_TRACK_FRAMES, True),
+    (("life_cycle", "tentative_max_misses"), 0, MAX_TRACK_FRAMES, True),
 ]
 
 
@@ -830,8 +831,8 @@ import ctypes, gc, json, sys, threading, time
 import torch
 from train.config import parse_config
 from train.data import SampleSet, loader
-from train.losses import detection_loss
-from train.models.detector import build_detector
+from train.detector.losses import detection_loss
+from train.detector.model import build_detector
 
 
 def anonymous() -> int:

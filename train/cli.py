@@ -23,9 +23,10 @@ from simgen.errors import UserError
 from simgen.scenario import Scenario, load_scenario
 from train.checkpoint import load_checkpoint
 from train.config import MAX_ITERATIONS, MAX_SEED, MAX_WORKERS, DetectorConfig, load_config, parse_config
-from train.evaluate import detect, evaluate, format_ap_table, write_ap_csv
+from train.detector.inference import detect
+from train.detector.model import Detector
+from train.evaluation.ap_table import evaluate, format_ap_table, write_ap_csv
 from train.fit import CHECKPOINT_NAME, fit
-from train.models.detector import Detector
 from train.preflight import (
     check_memory,
     check_resume,
@@ -34,7 +35,8 @@ from train.preflight import (
     parse_seeds,
     scenario_points_per_frame,
 )
-from train.study import (
+from train.study.report import write_tables
+from train.study.run import (
     CONFIGS,
     PRESETS,
     SCENARIOS,
@@ -45,8 +47,7 @@ from train.study import (
     run_study,
     seed_runs,
 )
-from train.study_report import write_tables
-from train.study_seeds import write_seed_tables
+from train.study.seeds import write_seed_tables
 from train.tracking.config import load_tracker_configs
 
 SPLITS = ("train", "val", "all")
@@ -104,8 +105,8 @@ def _split(name: str) -> str | None:
 def _model(
     checkpoint_path: str, dataset: simgen.datasets.Dataset, device: torch.device
 ) -> tuple[Detector, DetectorConfig, int]:
-    """The checkpoint's detector, once its inference (one window at a time, train.streaming) is known to fit the
-    device."""
+    """The checkpoint's detector, once its inference (one window at a time, train.detector.streaming) is known
+    to fit the device."""
     checkpoint = load_checkpoint(checkpoint_path)
     config = checkpoint.config
     check_memory(config, dataset_points_per_frame(dataset), device, training=False, batch=1)

@@ -13,9 +13,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
-from simgen.validation import read_yaml, validate
+from simgen.validation import Strict, read_yaml, validate
 
 TRACKLET_FRAMES = 3  # t-2, t-1, t
 POINT_FEATURES = 4  # x, y, z metres, intensity 0-1 per point (early fusion adds the frame offset)
@@ -44,10 +44,6 @@ MAX_DETECTIONS = 500  # OpenPCDet's NMS_POST_MAXSIZE, 20 x the 25 humanoids a pi
 MAX_SEED = 2**31 - 1  # as simgen.scenario
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-
 Name = Annotated[str, Field(pattern=r"^[^\x00-\x1f\x7f]+$", min_length=1, max_length=64)]  # one printable line
 Coordinate = Annotated[float, Field(ge=-MAX_RANGE_M, le=MAX_RANGE_M)]
 Channels = Annotated[int, Field(ge=1, le=MAX_CHANNELS)]
@@ -57,7 +53,7 @@ Angle = Annotated[float, Field(ge=-6.2832, le=6.2832)]
 Weight = Annotated[float, Field(ge=0.0, le=1000.0)]
 
 
-class AugmentConfig(_Strict):
+class AugmentConfig(Strict):
     """Global augmentation, the same for the three frames of a sample (training only)."""
 
     rotation_rad: float = Field(0.785, ge=0.0, le=3.1416)  # uniform in [-r, r] about z through the origin
@@ -71,7 +67,7 @@ class AugmentConfig(_Strict):
         return self
 
 
-class DataConfig(_Strict):
+class DataConfig(Strict):
     # x0, y0, z0, x1, y1, z1, each within MAX_RANGE_M of the centre spot
     point_range_m: tuple[Coordinate, Coordinate, Coordinate, Coordinate, Coordinate, Coordinate] = (
         -40.0, -40.0, -0.1, 40.0, 40.0, 2.5)
@@ -100,7 +96,7 @@ class DataConfig(_Strict):
         return round((y1 - y0) / self.pillar_size_m), round((x1 - x0) / self.pillar_size_m)
 
 
-class PillarEncoderConfig(_Strict):
+class PillarEncoderConfig(Strict):
     """PointPillars' pillar feature net: one Linear + BatchNorm + ReLU per point, max over the pillar."""
 
     name: Literal["pillar_vfe"] = "pillar_vfe"
@@ -110,7 +106,7 @@ class PillarEncoderConfig(_Strict):
     scale_inputs: bool = False
 
 
-class Backbone2dConfig(_Strict):
+class Backbone2dConfig(Strict):
     """PointPillars' top-down blocks (pedestrian: 4, 6, 6 layers) and their upsampling to one size."""
 
     name: Literal["pointpillars"] = "pointpillars"
@@ -138,7 +134,7 @@ class Backbone2dConfig(_Strict):
         return self
 
 
-class NoFusionConfig(_Strict):
+class NoFusionConfig(Strict):
     """Frame t alone (the paper's single-frame baseline)."""
 
     name: Literal["none"]
@@ -147,7 +143,7 @@ class NoFusionConfig(_Strict):
     time_channel: ClassVar[bool] = False  # points carry their frame offset (-2, -1, 0)
 
 
-class EarlyFusionConfig(_Strict):
+class EarlyFusionConfig(Strict):
     """The three sweeps merged into one cloud with a time channel, one backbone pass."""
 
     name: Literal["early"]
@@ -156,7 +152,7 @@ class EarlyFusionConfig(_Strict):
     time_channel: ClassVar[bool] = True
 
 
-class LateFusionConfig(_Strict):
+class LateFusionConfig(Strict):
     """The paper's module: one backbone pass per frame, a 3x3x3 Conv3d per level over the frames."""
 
     name: Literal["late"]
@@ -172,7 +168,7 @@ METHODS = {"none": "single", "early": "early", "late": "late"}  # fusion name ->
 Size = Annotated[float, Field(gt=0.0, le=20.0)]  # no object on a pitch is 20 m across (a goal: 7.3 m)
 
 
-class AnchorConfig(_Strict):
+class AnchorConfig(Strict):
     size_m: tuple[Size, Size, Size] = (0.8, 0.8, 1.7)  # length, width, height
     z_m: Coordinate = 0.85  # centre height
     # anchors per cell
@@ -181,11 +177,11 @@ class AnchorConfig(_Strict):
     unmatch_iou: float = Field(0.35, ge=0.0, le=1.0)  # negative below; ignored between
 
 
-class BoxCoderConfig(_Strict):
-    name: Literal["residual"] = "residual"  # SECOND's residual coding (train.models.box_coder)
+class BoxCoderConfig(Strict):
+    name: Literal["residual"] = "residual"  # SECOND's residual coding (train.detector.box_coder)
 
 
-class HeadConfig(_Strict):
+class HeadConfig(Strict):
     """SSD-style dense head: per anchor a score, K boxes (t-2, t-1, t or t only) and a direction bin."""
 
     name: Literal["anchor_head"] = "anchor_head"
@@ -195,8 +191,8 @@ class HeadConfig(_Strict):
     dir_offset_rad: Angle = 0.78539
 
 
-class ModelConfig(_Strict):
-    """The detector's named parts, each built by its registry (train.models.registry)."""
+class ModelConfig(Strict):
+    """The detector's named parts, each built by its registry (train.detector.registry)."""
 
     pillar_encoder: PillarEncoderConfig = PillarEncoderConfig()
     backbone_2d: Backbone2dConfig = Backbone2dConfig()
@@ -215,7 +211,7 @@ class ModelConfig(_Strict):
         return self
 
 
-class LossConfig(_Strict):
+class LossConfig(Strict):
     """Paper eq. 2: alpha L_cls + sum_i lambda_i L_loc^i + beta L_dir."""
 
     cls_weight: Weight = 1.0  # alpha
@@ -227,7 +223,7 @@ class LossConfig(_Strict):
     smooth_l1_beta: float = Field(1.0 / 9.0, gt=0.0, le=10.0)
 
 
-class TrainConfig(_Strict):
+class TrainConfig(Strict):
     iterations: int = Field(2000, ge=1, le=MAX_ITERATIONS)
     batch_size: int = Field(2, ge=1, le=MAX_BATCH)
     lr: float = Field(0.003, gt=0.0, le=MAX_LR)  # peak of the one-cycle schedule
@@ -241,14 +237,14 @@ class TrainConfig(_Strict):
     bf16: Literal["auto", "on", "off"] = "auto"  # bfloat16 autocast; auto: on CUDA only
 
 
-class InferConfig(_Strict):
+class InferConfig(Strict):
     score_threshold: float = Field(0.1, ge=0.0, le=1.0)
     pre_nms: int = Field(500, ge=1, le=MAX_PRE_NMS)
     nms_iou: float = Field(0.2, gt=0.0, le=1.0)  # BEV IoU of the boxes at t
     max_detections: int = Field(100, ge=1, le=MAX_DETECTIONS)
 
 
-class DetectorConfig(_Strict):
+class DetectorConfig(Strict):
     name: Name
     seed: int = Field(0, ge=0, le=MAX_SEED)
     data: DataConfig = DataConfig()

@@ -5,7 +5,7 @@ otherwise) and, for every object of the configured classes whose centre at t is 
 boxes at t-2, t-1 and t matched by track id. Augmentation (flip, rotation, scale) is one global
 transform for all three frames; the crop follows it. Points become pillar indices here, in the
 loader's workers; the model turns them into pillar features. Training targets come from the
-detector's own target assigner (train.models.target_assigner), handed in by the caller, so this
+detector's own target assigner (train.detector.target_assigner), handed in by the caller, so this
 module knows nothing of anchors or models.
 """
 
@@ -191,7 +191,7 @@ class Batch:
     pillar: torch.Tensor  # (U,) int64 the non-empty pillars, sorted flat indices into (B * canvases * rows * columns)
     point_pillar: torch.Tensor  # (P,) int64 each point's pillar, 0 .. U - 1
     batch_size: int
-    targets: Any  # the assigner's collated targets (train.models.target_assigner.BatchTargets), or None
+    targets: Any  # the assigner's collated targets (train.detector.target_assigner.BatchTargets), or None
     samples: tuple[Sample, ...]
 
     def to(self, device: torch.device, non_blocking: bool = False) -> Batch:

@@ -19,10 +19,11 @@ from tqdm import tqdm
 from train.checkpoint import Checkpoint, save_checkpoint
 from train.config import DetectorConfig
 from train.data import SampleSet, loader
-from train.evaluate import average_precisions, mean_ap, predict
-from train.learning_curve import CurvePoint, read_curve, write_curve
-from train.losses import detection_loss
-from train.models.detector import Detector, build_detector
+from train.detector.inference import predict
+from train.detector.losses import detection_loss
+from train.detector.model import Detector, build_detector
+from train.evaluation.ap_table import average_precisions, mean_ap
+from train.evaluation.learning_curve import CurvePoint, read_curve, write_curve
 from train.preflight import check_resume
 
 CHECKPOINT_NAME = "checkpoint.pt"

@@ -34,7 +34,7 @@ INDEX = 8  # bytes of an int64
 MAPS_PER_LAYER = 3  # a conv's output, its BatchNorm's and its ReLU's
 GRADIENT_MAPS = 2  # the backward pass holds the gradients of a layer's output and of its input
 TRAINING_COPIES = 4  # of each parameter: the weight, its gradient, AdamW's two moments
-# Building the anchors (train.models.anchors) holds float64 meshgrids and a float64 (N, 7) array before the
+# Building the anchors (train.detector.anchors) holds float64 meshgrids and a float64 (N, 7) array before the
 # float32 one; the model keeps one float32 copy as a buffer and the target assigner another.
 ANCHOR_BYTES = 3 * 8 + 2 * 7 * 8 + 2 * 7 * FLOAT
 LOSS_BYTES_PER_ANCHOR = 48  # the focal loss's ~10 float32 temporaries, the label, its masks
@@ -69,9 +69,9 @@ class MemoryEstimate:
 
 
 def parameter_counts(config: DetectorConfig) -> dict[str, int]:
-    """Weights of each part of train.models.detector.Detector (BatchNorm's running statistics included)."""
+    """Weights of each part of train.detector.model.Detector (BatchNorm's running statistics included)."""
     model = config.model
-    features = POINT_FEATURES + int(model.fusion.time_channel) + 6  # the point and its offsets (train.models.pillars)
+    features = POINT_FEATURES + int(model.fusion.time_channel) + 6  # the point and its offsets (train.detector.pillars)
     pfn = model.pillar_encoder.channels
     backbone, inputs = 0, pfn
     b = model.backbone_2d

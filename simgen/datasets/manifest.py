@@ -24,7 +24,7 @@ from simgen.datasets.records import FileRecord
 from simgen.datasets.schema import BOX_CONVENTION, PITCH_FRAME, SCHEMA_VERSION
 from simgen.errors import UserError
 from simgen.scan.sensor import Sensor
-from simgen.validation import one_line, read_limited
+from simgen.validation import Strict, one_line, read_limited
 
 MANIFEST_NAME = "manifest.json"
 #: Packages whose versions shape the data (the engine, ray casting, meshes, arrays, files).
@@ -72,7 +72,7 @@ class Manifest:
     def from_dict(cls, data: dict) -> Manifest:
         """From a manifest.json document; `ValidationError` naming the first bad field, ValueError a sensor whose
         preset its scenario does not resolve."""
-        valid = ManifestFile.model_validate(data)
+        valid = ManifestFile.model_validate(data, strict=True)  # no coercion: JSON's types as written
         return cls(
             format=valid.format,
             schema_version=valid.schema_version,
@@ -101,18 +101,14 @@ Count = Annotated[int, Field(ge=0, lt=2**63)]
 Number = Annotated[float, Field(ge=-1e6, le=1e6)]
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False, frozen=True)
-
-
-class FileEntry(_Strict):
+class FileEntry(Strict):
     path: Annotated[str, Field(min_length=1, max_length=1024), AfterValidator(_inside_the_dataset)]
     rows: Count
     bytes: Count
     sha256: str = Field(pattern=r"^[0-9a-f]{64}$")
 
 
-class ClipItem(_Strict):
+class ClipItem(Strict):
     clip: str = Field(pattern=r"^[A-Za-z][A-Za-z0-9_.-]*$", max_length=128)
     clip_index: int = Field(ge=0, lt=100_000)
     frames: int = Field(ge=1, le=1_000_000)
@@ -122,7 +118,7 @@ class ClipItem(_Strict):
     start_s: Number
 
 
-class SensorItem(_Strict):
+class SensorItem(Strict):
     """`simgen.scan.sensor.Sensor.record()` as the manifest lists it (validated as it is read)."""
 
     sensor_id: int = Field(ge=0, lt=256)
@@ -136,13 +132,13 @@ class SensorItem(_Strict):
     density: float = Field(gt=0, le=1000)
 
 
-class Totals(_Strict):
+class Totals(Strict):
     frames: Count
     points: Count
     boxes: Count
 
 
-class ManifestFile(_Strict):
+class ManifestFile(Strict):
     """manifest.json, field by field."""
 
     format: Literal[FORMATS]

@@ -24,8 +24,6 @@ from numpy.typing import NDArray
 from train.tracking.split import axis_mean
 from train.tracking.types import TRACKLET_LEN, GroundTruthFrame, Tracklets
 
-FULL_TRACKER = "3D DIoU + birth/death + split"  # the paper's full tracker: the last row of Table 2
-
 _ARRIVED_M = 0.3  # a free player this close to his goal picks a new one
 _MOVING_MPS = 0.5  # slower players keep their heading
 _MEETING_GAP_M = 0.4  # centre distance of two players standing together

@@ -9,11 +9,36 @@ exactly what it would on the full matrix.
 
 from __future__ import annotations
 
+from typing import Annotated, Literal
+
 import numpy as np
 from numpy.typing import NDArray
+from pydantic import Field, model_validator
 from scipy.optimize import linear_sum_assignment
 
+from simgen.validation import Strict
 from train.geometry import diou_3d_pairs
+
+Share = Annotated[float, Field(ge=0.0, le=1.0)]
+
+
+class AssociationConfig(Strict):
+    """`tracklet_diou`: the paper's weighted 3D DIoU of a tracklet's boxes at t-2, t-1 and a
+    trajectory's; `iou_3d`: AB3DMOT's 3D IoU of the boxes at t and the Kalman predictions."""
+
+    method: Literal["tracklet_diou", "iou_3d"]
+    lower_bound: float = Field(ge=-1.0, le=1.0)  # pairs below it never match (normal trajectories for DIoU)
+    dying_lower_bound: float = Field(-0.5, ge=-1.0, le=1.0)  # tracklet_diou: for dying trajectories
+    # tracklet_diou: of the DIoU at t-2 and at t-1, summing to 1 so that the bounds keep DIoU's scale. The
+    # paper does not give them; t-1 weighs more because both its boxes come from later, better-supported
+    # regressions (the trajectory's box at t-1 was regressed as a tracklet's current box).
+    weights: tuple[Share, Share] = (0.4, 0.6)
+
+    @model_validator(mode="after")
+    def _sum(self) -> AssociationConfig:
+        if abs(sum(self.weights) - 1.0) > 1e-6:
+            raise ValueError(f"'association.weights': {self.weights[0]:g} + {self.weights[1]:g} is not 1")
+        return self
 
 
 def _half_diagonals(boxes: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

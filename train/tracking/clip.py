@@ -1,4 +1,5 @@
-"""A whole clip through an online tracker, with the boxes it back-fills merged into earlier frames."""
+"""A whole clip through an online tracker, with the boxes it back-fills merged into earlier frames; the tracker
+a config names (`make_tracker`)."""
 
 from __future__ import annotations
 
@@ -7,11 +8,19 @@ from typing import Protocol
 
 import numpy as np
 
+from train.tracking.ab3dmot import Ab3dmot
+from train.tracking.config import TrackerConfig
+from train.tracking.diou_tracker import DiouTracker
 from train.tracking.types import TrackedFrame, Tracklets
 
 
 class OnlineTracker(Protocol):
     def step(self, tracklets: Tracklets) -> TrackedFrame: ...
+
+
+def make_tracker(config: TrackerConfig) -> OnlineTracker:
+    """A fresh tracker (one per clip) for the config's association: AB3DMOT's 3D IoU or the paper's DIoU."""
+    return Ab3dmot(config) if config.association.method == "iou_3d" else DiouTracker(config)
 
 
 def merge(frame: TrackedFrame, more: TrackedFrame) -> TrackedFrame:

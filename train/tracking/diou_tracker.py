@@ -27,15 +27,13 @@ ends at once (no step 2); with ``split`` off, step 4 is skipped: the paper's abl
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 from numpy.typing import NDArray
 
 from train.tracking import life_cycle, motion_model, split
 from train.tracking.association import diou_affinity, match
-from train.tracking.life_cycle import LifeCycleConfig
-from train.tracking.motion_model import PLAYER_KALMAN, KalmanConfig
+from train.tracking.config import TrackerConfig
+from train.tracking.motion_model import MOTION_MODELS
 from train.tracking.split import SplitConfig
 from train.tracking.track_table import append, end_frame, new_tracks
 from train.tracking.types import TrackedFrame, Tracklets
@@ -43,47 +41,24 @@ from train.tracking.types import TrackedFrame, Tracklets
 _OVERLAP = slice(0, 2)  # a tracklet's boxes at t-2 and t-1
 
 
-@dataclass(frozen=True)
-class DiouTrackerConfig:
-    """The paper's values (Sect. 4.1) where it gives them."""
-
-    # Weights of the DIoU at t-2 and at t-1. The paper does not give them; t-1 weighs more because
-    # both its boxes come from later, better-supported regressions (the trajectory's box at t-1
-    # was regressed as a tracklet's current box). They sum to 1, so the bounds keep DIoU's scale.
-    weights: tuple[float, float] = (0.4, 0.6)
-    normal_lower_bound: float = -0.125
-    dying_lower_bound: float = -0.5
-    max_dying_frames: int = 6
-    min_hits: int = 3
-    birth_death: bool = True
-    split: bool = True
-    output_dying: bool = True
-    backfill: bool = True
-    split_config: SplitConfig = field(default_factory=SplitConfig)
-    kalman: KalmanConfig = PLAYER_KALMAN
-
-    def life_cycle(self) -> LifeCycleConfig:
-        if self.birth_death:
-            return LifeCycleConfig(self.min_hits, self.max_dying_frames, tentative_max_misses=0)
-        return LifeCycleConfig(min_hits=1, max_misses=0, tentative_max_misses=0)
-
-
 class DiouTracker:
-    """Online: feed one frame's tracklets at a time to ``step``."""
+    """Online: feed one frame's tracklets at a time to ``step``; ``config.association.method`` is
+    ``tracklet_diou``."""
 
-    def __init__(self, config: DiouTrackerConfig | None = None) -> None:
-        self.config = config or DiouTrackerConfig()
-        self._rules = self.config.life_cycle()
-        self._tracks = new_tracks(np.empty((0, 2, 7)), np.empty(0), 0, self.config.kalman)
+    def __init__(self, config: TrackerConfig) -> None:
+        self.config = config
+        self.kalman = MOTION_MODELS[config.motion_model]
+        self._split_rules = SplitConfig()
+        self._tracks = new_tracks(np.empty((0, 2, 7)), np.empty(0), 0, self.kalman)
         self._next_id = 0
         self._fused: set[frozenset[int]] = set()  # ids of the pairs split at t-1
 
     def step(self, tracklets: Tracklets) -> TrackedFrame:
-        cfg, tracks = self.config, self._tracks
+        cfg, life, tracks = self.config.association, self.config.life_cycle, self._tracks
         boxes, scores = tracklets.boxes, tracklets.scores
-        predicted = motion_model.predict(tracks.kalman, cfg.kalman)
-        confirmed = life_cycle.confirmed(tracks.hits, self._rules)
-        loosest = np.where(confirmed & cfg.birth_death, cfg.dying_lower_bound, cfg.normal_lower_bound)
+        predicted = motion_model.predict(tracks.kalman, self.kalman)
+        confirmed = life_cycle.confirmed(tracks.hits, life)
+        loosest = np.where(confirmed & life.birth_death, cfg.dying_lower_bound, cfg.lower_bound)
         affinity = diou_affinity(boxes[:, _OVERLAP], tracks.boxes, cfg.weights, loosest)  # (N, K)
         source = np.full(len(tracks.ids), -1)  # each trajectory's tracklet; -1: none yet
         used = np.zeros(len(boxes), dtype=bool)
@@ -94,27 +69,27 @@ class DiouTracker:
             source[trajectories[cols]] = free[rows]
             used[free[rows]] = True
 
-        associate(np.flatnonzero(confirmed & (tracks.misses == 0)), cfg.normal_lower_bound)
-        if cfg.birth_death:
+        associate(np.flatnonzero(confirmed & (tracks.misses == 0)), cfg.lower_bound)
+        if life.birth_death:
             associate(np.flatnonzero(confirmed & (source < 0)), cfg.dying_lower_bound)
-        associate(np.flatnonzero(~confirmed), cfg.normal_lower_bound)
+        associate(np.flatnonzero(~confirmed), cfg.lower_bound)
         matched = source >= 0
         measured = np.zeros((len(tracks.ids), 2, 7))
         measured[matched] = boxes[source[matched], 1:]
         matched_scores = np.zeros(len(tracks.ids))
         matched_scores[matched] = scores[source[matched]]
-        if cfg.split:
+        if self.config.split:
             pair, pair_boxes, pair_source = self._split(tracklets, predicted, source)
             measured[pair], matched_scores[pair], matched[pair] = pair_boxes, scores[pair_source], True
 
-        backfill = self._backfill(tracklets, source, matched & ~confirmed, matched_scores) if cfg.backfill else ()
-        tracks = end_frame(tracks, predicted, matched, measured, matched_scores, cfg.kalman, self._rules)
+        backfill = self._backfill(tracklets, source, matched & ~confirmed, matched_scores) if life.backfill else ()
+        tracks = end_frame(tracks, predicted, matched, measured, matched_scores, self.kalman, life)
         born = np.flatnonzero(~used)
-        tracks = append(tracks, new_tracks(boxes[born, 1:], scores[born], self._next_id, cfg.kalman))
+        tracks = append(tracks, new_tracks(boxes[born, 1:], scores[born], self._next_id, self.kalman))
         self._next_id += len(born)
         self._tracks = tracks
-        shown = life_cycle.confirmed(tracks.hits, self._rules)
-        if not cfg.output_dying:
+        shown = life_cycle.confirmed(tracks.hits, life)
+        if not life.output_dying:
             shown &= tracks.misses == 0
         return TrackedFrame(tracks.boxes[shown, -1], tracks.ids[shown], tracks.scores[shown], backfill)
 
@@ -123,7 +98,7 @@ class DiouTracker:
     ) -> tuple[TrackedFrame, ...]:
         """Frames t-n..t-1 (n = min(min_hits - 1, 2)) of the trajectories this frame confirms, from the
         boxes of the tracklet that confirms them, scored with their mean score."""
-        tracks, need = self._tracks, self._rules.min_hits
+        tracks, need = self._tracks, life_cycle.hits_to_confirm(self.config.life_cycle)
         newly = np.flatnonzero(tentative & (tracks.hits + 1 >= need))
         frames = min(need - 1, _OVERLAP.stop)
         if not len(newly) or frames < 1:
@@ -138,8 +113,8 @@ class DiouTracker:
         """Trajectories (F,), their boxes at t-1 and t (F, 2, 7) and tracklets (F,) for the matched
         tracklets (``source``: per trajectory) that fuse their trajectory and an unmatched one, both
         confirmed (a new trajectory may be a duplicate): both trajectories of each such pair."""
-        tracks, config = self._tracks, self.config.split_config
-        confirmed = life_cycle.confirmed(tracks.hits, self._rules)
+        tracks, config = self._tracks, self._split_rules
+        confirmed = life_cycle.confirmed(tracks.hits, self.config.life_cycle)
         partners = np.flatnonzero((source >= 0) & confirmed)
         orphans = np.flatnonzero((source < 0) & confirmed)
         previous = tracks.boxes[:, 1]

@@ -9,6 +9,7 @@ AB3DMOT's orientation correction does, written as one wrap.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,6 +47,9 @@ PLAYER_KALMAN = KalmanConfig(
     process_velocity_variance=0.003,
     measurement_variance=0.01,
 )
+# A tracker config's `motion_model`: the variances by name.
+MOTION_MODELS = {"kalman_player": PLAYER_KALMAN, "kalman_ab3dmot": KalmanConfig()}
+MotionModel = Literal["kalman_player", "kalman_ab3dmot"]
 
 
 @dataclass

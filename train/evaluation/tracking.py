@@ -34,8 +34,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
+from train.evaluation.recall_levels import level_thresholds
 from train.geometry import iou_3d
-from train.metrics.recall_levels import level_thresholds
 from train.tracking.types import GroundTruthFrame, TrackedFrame
 
 RECALL_LEVELS = 40
@@ -173,7 +173,7 @@ def _evaluate(clips: list[list[_Frame]], min_iou: float, threshold: float) -> tu
 def recall_thresholds(tp_scores: Sequence[float], n_gt: int, levels: int = RECALL_LEVELS) -> list[tuple[float, float]]:
     """(score threshold, recall level) pairs for levels 1/L, 2/L, ... as far as the scores reach.
 
-    AB3DMOT's getThresholds (train.metrics.recall_levels), level 0 dropped.
+    AB3DMOT's getThresholds (train.evaluation.recall_levels), level 0 dropped.
     """
     return level_thresholds(tp_scores, n_gt, levels)[1:]
 

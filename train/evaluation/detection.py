@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from train.evaluation.recall_levels import level_thresholds
 from train.geometry import bev_iou_pairs, iou_3d_pairs
-from train.metrics.recall_levels import level_thresholds
 
 
 def centre_closeness_pairs(a: NDArray, b: NDArray) -> NDArray[np.float64]:
@@ -113,7 +113,7 @@ def average_precision(scores: NDArray[np.float32], tp: NDArray[np.bool_], num_tr
     """AP in percent from all detections' scores and true-positive flags and the ground-truth count.
 
     KITTI's rule (kitti_object_eval_python, as OpenPCDet runs it): score thresholds at the 41 recall
-    levels 0, 1/40, ..., 1 from the true positives' scores (train.metrics.recall_levels, the last true
+    levels 0, 1/40, ..., 1 from the true positives' scores (train.evaluation.recall_levels, the last true
     positive's score always among them); at each, precision of the detections scoring at least
     it, then the best precision at that threshold or a lower one. R40 averages levels 1/40..1, R11
     levels 0, 0.1, ..., 1; levels past the last threshold add 0.

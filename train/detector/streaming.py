@@ -4,7 +4,7 @@ A late-fusion window at t reads frames t-2, t-1 and t, each on its own canvas, a
 encoder and backbone see one canvas alone: so consecutive windows of a clip share two frames'
 backbone levels, kept here, and only the new frame is computed (a third of the work). Without
 augmentation a frame's points are the same in every window that holds it, so this is the
-model's own forward, in another order. The BatchNorms are folded (train.models.folding), and the
+model's own forward, in another order. The BatchNorms are folded (train.detector.folding), and the
 head's box and direction convolutions run only at the anchors that pass the score threshold.
 Single-frame models reuse nothing (each frame is one window); early fusion merges the sweeps on
 one canvas, so each window is its own key.
@@ -20,9 +20,9 @@ import torch
 
 from train.config import DetectorConfig
 from train.data import Batch, Encoded, Sample, collate
-from train.models.detector import Detector
-from train.models.folding import fold_batchnorm
-from train.postprocess import Detections, candidates, tracklets
+from train.detector.folding import fold_batchnorm
+from train.detector.model import Detector
+from train.detector.postprocess import Detections, candidates, tracklets
 
 
 def canvas_keys(sample: Sample, config: DetectorConfig) -> list[tuple[str, int, int]]:
@@ -70,7 +70,7 @@ def fused_features(folded: Detector, config: DetectorConfig, samples: Sequence[E
 def stream(model: Detector, config: DetectorConfig, samples: Sequence[Encoded], device: torch.device
            ) -> Iterator[tuple[Sample, Detections]]:
     """Each encoded sample (a SampleSet without augmentation, in order) with its tracklets, as `model(batch)`
-    and train.postprocess would give them (to float32 rounding)."""
+    and train.detector.postprocess would give them (to float32 rounding)."""
     folded = fold_batchnorm(model).to(device)
     with torch.inference_mode():
         for sample, features in fused_features(folded, config, samples, device):

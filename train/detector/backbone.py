@@ -6,8 +6,8 @@ import torch
 from torch import nn
 
 from train.config import Backbone2dConfig
-from train.models.registry import BACKBONES_2D
-from train.models.sparse_canvas import SparseCanvas, sparse_conv2d
+from train.detector.registry import BACKBONES_2D
+from train.detector.sparse_canvas import SparseCanvas, sparse_conv2d
 
 
 def _conv(inputs: int, outputs: int, stride: int = 1) -> list[nn.Module]:

@@ -1,6 +1,6 @@
 """The tracklets the trackers get: a score threshold and a tight NMS, chosen on the train clips.
 
-The detector's own output (train.postprocess: score >= 0.1, NMS at BEV IoU 0.2) is for AP, which
+The detector's own output (train.detector.postprocess: score >= 0.1, NMS at BEV IoU 0.2) is for AP, which
 rewards every candidate; a tracker fed all of them latches onto the false ones, many 0.3-1 m from
 a player. The paper filters its tracklets by score before associating them, and OpenPCDet's
 PointPillars suppresses at BEV IoU 0.01. Here the filter is a score threshold and greedy NMS on the
@@ -23,10 +23,10 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm import tqdm
 
-from train.metrics.tracking import evaluate_tracking
-from train.nms import nms_bev, nms_centre
-from train.tracking.clip import track_clip
-from train.tracking.config import TrackerConfig, make_tracker
+from train.detector.nms import nms_bev, nms_centre
+from train.evaluation.tracking import evaluate_tracking
+from train.tracking.clip import make_tracker, track_clip
+from train.tracking.config import TrackerConfig
 from train.tracking.types import GroundTruthFrame, Tracklets
 
 

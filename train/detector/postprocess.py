@@ -9,9 +9,9 @@ import torch
 from numpy.typing import NDArray
 
 from train.config import DetectorConfig
-from train.models.box_coder import apply_direction, decode
-from train.models.head import HeadOutput
-from train.nms import nms_bev
+from train.detector.box_coder import apply_direction, decode
+from train.detector.head import HeadOutput
+from train.detector.nms import nms_bev
 
 
 @dataclass(frozen=True)

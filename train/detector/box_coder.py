@@ -16,7 +16,7 @@ import torch
 from numpy.typing import NDArray
 
 from train.config import BoxCoderConfig
-from train.models.registry import BOX_CODERS
+from train.detector.registry import BOX_CODERS
 
 
 def encode(anchors: NDArray[np.float32], boxes: NDArray[np.float32]) -> NDArray[np.float32]:

@@ -5,12 +5,12 @@
 2. Table 1: each model asked for (`late` always) is trained on the `train` clips (train.fit), or
    reused from `OUT/<model>/` when that checkpoint has the same data and a config that gives the same
    weights (inference settings may differ: train.config.same_weights), and its boxes at t
-   are scored on the `val` clips (train.evaluate: AP in BEV and 3D, IoU 0.5).
-3. Table 2: the `late` model's tracklets are filtered for tracking (train.tracklet_filter: a score
+   are scored on the `val` clips (train.evaluation.ap_table: AP in BEV and 3D, IoU 0.5).
+3. Table 2: the `late` model's tracklets are filtered for tracking (train.study.tracklet_filter: a score
    threshold and a tight NMS, chosen for each tracker by its own sAMOTA on the `train` clips), then
    the `val` clips' go to every tracker of train/configs/tracking/ (AB3DMOT with its own and with
    the player Kalman filter, the 3D DIoU tracker with and without birth/death and split), each
-   through its own filter; their tracks are scored against the labels (train.metrics), and so are
+   through its own filter; their tracks are scored against the labels (train.evaluation), and so are
    the trackers' tracks of the unfiltered tracklets, for comparison.
 
 Ground truth, as for AP: the objects of the detector's classes whose centre at t lies in its
@@ -37,28 +37,29 @@ from simgen.scenario import Scenario, parse_scenario
 from train.checkpoint import load_checkpoint
 from train.config import DetectorConfig, load_config, parse_config, same_weights
 from train.data import Sample
-from train.detections import ClipTracklets, clip_tracklets, write_tracklets
-from train.evaluate import ApRow, average_precisions, predict, visible_objects
+from train.detector.detections import ClipTracklets, clip_tracklets, write_tracklets
+from train.detector.inference import predict
+from train.detector.model import Detector
+from train.detector.postprocess import Detections
+from train.evaluation.ap_table import ApRow, average_precisions, visible_objects
+from train.evaluation.decomposition import Decomposition, decompose
+from train.evaluation.detection import FrameBoxes
+from train.evaluation.hota import Hota, centre_hota, hota
+from train.evaluation.tracking import TrackingMetrics, evaluate_tracking
 from train.fit import CHECKPOINT_NAME, fit
-from train.metrics.decomposition import Decomposition, decompose
-from train.metrics.detection import FrameBoxes
-from train.metrics.hota import Hota, centre_hota, hota
-from train.metrics.tracking import TrackingMetrics, evaluate_tracking
-from train.models.detector import Detector
-from train.postprocess import Detections
-from train.tracking.clip import track_clip
-from train.tracking.config import TrackerConfig, load_tracker_configs, make_tracker
+from train.study.tracklet_filter import FilterScore, TrackletFilter, apply_filter, choose_filters
+from train.tracking.clip import make_tracker, track_clip
+from train.tracking.config import TrackerConfig, load_tracker_configs
 from train.tracking.types import GroundTruthFrame, TrackedFrame, Tracklets
-from train.tracklet_filter import FilterScore, TrackletFilter, apply_filter, choose_filters
 
 MODELS = ("single", "early", "late")  # the paper's Table 1 methods
 TRACKED_MODEL = "late"
 # The paper's Table 1 rows per point density (x1: single, early, late; x2: single, late).
 PAPER_ROWS = {1.0: ("single", "early", "late"), 2.0: ("single", "late")}
 MIN_IOUS = (0.25, 0.5)  # 3D IoU of a true positive: AB3DMOT's default, and the stricter one
-CONFIGS = Path(__file__).parent / "configs"
+CONFIGS = Path(__file__).parents[1] / "configs"
 TRACKER_CONFIGS = CONFIGS / "tracking"  # one YAML per Table 2 row, in file-name order
-SCENARIOS = Path(__file__).parents[1] / "scenarios"
+SCENARIOS = Path(__file__).parents[2] / "scenarios"
 # `--preset`: the paper's Tables 1 (all five rows) and 2 at its model size: (configs, (scenario, models) per study).
 PRESETS = {"paper": (CONFIGS / "paper", (("paper_x1.yaml", PAPER_ROWS[1.0]), ("paper_x2.yaml", PAPER_ROWS[2.0])))}
 TRAINED_ON = "trained_on.json"  # beside a study's checkpoint: the dataset and scenario it was fitted on
@@ -118,7 +119,7 @@ class FilterChoice:
 
     chosen: TrackletFilter
     tracker: str
-    scores: list[FilterScore]  # in train.tracklet_filter.GRID order
+    scores: list[FilterScore]  # in train.study.tracklet_filter.GRID order
     train_frames: int
     val_tracklets_per_frame: tuple[float, float]  # before and after the filter
 
@@ -293,7 +294,7 @@ def detect_val(
     model: Detector, config: DetectorConfig, dataset: StudyDataset, options: StudyOptions
 ) -> tuple[list[ApRow], Decomposition, ClipSet]:
     """One inference pass over the val clips: AP rows (all boxes and visible ones), where the 3D AP of the
-    boxes at t goes (train.metrics.decomposition), tracklets and ground truth."""
+    boxes at t goes (train.evaluation.decomposition), tracklets and ground truth."""
     results = detect_split(model, config, dataset, "val", options)
     visible = visible_objects(simgen.datasets.open(dataset.path), [s for s, _ in results])
     at_t = [FrameBoxes(d.boxes[:, -1], d.scores, s.boxes[s.box_mask[:, -1], -1]) for s, d in results]
@@ -316,7 +317,7 @@ def tracklets_per_frame(clips: ClipSet, rule: TrackletFilter | None) -> float:
 def choose_tracklet_filters(
     train: ClipSet, val: ClipSet, configs: list[TrackerConfig], progress: bool
 ) -> dict[str, FilterChoice]:
-    """Each tracker's filter of train.tracklet_filter.GRID: the one it tracks best on the train clips."""
+    """Each tracker's filter of train.study.tracklet_filter.GRID: the one it tracks best on the train clips."""
     clips = [train.clip_frames(c) for c in train.clips]
     chosen = choose_filters(clips, [train.truth[c] for c in train.clips], configs, progress=progress)
     frames, before = sum(len(c) for c in clips), tracklets_per_frame(val, None)

@@ -1,4 +1,4 @@
-"""Inference over a dataset split, detection AP for each box of the tracklet, tracklet files.
+"""Detection AP of a model on a dataset split, for each box of the tracklet.
 
 AP rows: each box of the tracklet (t, t-1, t-2), IoU 0.5 in BEV and 3D and pitch-plane centre
 distance within 0.25, 0.5 and 1 m, R40 and R11, on all labelled boxes and on the *visible* ones
@@ -9,23 +9,20 @@ from __future__ import annotations
 
 import csv
 import time
-from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import torch
 from numpy.typing import NDArray
-from tqdm import tqdm
 
 import simgen.datasets
 from train.config import TRACKLET_FRAMES, DetectorConfig
-from train.data import Sample, SampleSet
-from train.detections import clip_tracklets, write_kitti, write_tracklets
-from train.metrics.detection import RECALL_POINTS, FrameBoxes, detection_aps, similarities
-from train.models.detector import Detector
-from train.postprocess import Detections
-from train.streaming import stream
+from train.data import Sample
+from train.detector.inference import predict
+from train.detector.model import Detector
+from train.detector.postprocess import Detections
+from train.evaluation.detection import RECALL_POINTS, FrameBoxes, detection_aps, similarities
 
 IOU_THRESHOLD = 0.5
 CENTRE_THRESHOLDS_M = (0.25, 0.5, 1.0)
@@ -43,17 +40,6 @@ class ApRow:
     detections: int
     threshold: float = IOU_THRESHOLD
     truth_set: str = "all"  # or "visible"
-
-
-def predict(model: Detector, config: DetectorConfig, dataset: str, split: str | None, device: torch.device,
-            progress: bool = True) -> Iterator[tuple[Sample, Detections]]:
-    """Each sample of the split (frames with two before them), in clip and frame order, with its tracklets
-    (train.streaming: each frame's backbone once)."""
-    samples = SampleSet(dataset, split, config)
-    found = stream(model, config, samples, device)
-    yield from tqdm(
-        found, total=len(samples), desc=f"detect {config.name}", unit="frame", disable=not progress, dynamic_ncols=True
-    )
 
 
 def box_name(offset: int) -> str:
@@ -155,25 +141,6 @@ def evaluate(model: Detector, config: DetectorConfig, dataset: str, split: str |
     results = list(predict(model, config, dataset, split, device, progress))
     visible = visible_objects(simgen.datasets.open(dataset), [s for s, _ in results])
     return EvalResult(average_precisions(results, visible), len(results) / (time.perf_counter() - start))
-
-
-def detect(model: Detector, config: DetectorConfig, dataset: str, split: str | None, device: torch.device, out: Path,
-           progress: bool = True) -> list[Path]:
-    """Write `out/tracklets/<clip>.npz` and `out/kitti/<clip>/<frame>.txt`; return the tracklet files."""
-    by_clip: dict[str, list[tuple[int, Detections]]] = {}
-    for sample, found in predict(model, config, dataset, split, device, progress):
-        by_clip.setdefault(sample.clip, []).append((sample.index, found))
-    (out / "tracklets").mkdir(parents=True, exist_ok=True)
-    written = []
-    for clip, frames in by_clip.items():
-        tracklets = clip_tracklets(
-            clip, [f for f, _ in frames], [d.boxes for _, d in frames], [d.scores for _, d in frames]
-        )
-        path = out / "tracklets" / f"{clip}.npz"
-        write_tracklets(path, tracklets)
-        write_kitti(out / "kitti" / clip, tracklets, [f for f, _ in frames])
-        written.append(path)
-    return written
 
 
 def measure_name(row: ApRow) -> str:

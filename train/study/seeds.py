@@ -12,9 +12,9 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from simgen.atomic import atomic_path
-from train.evaluate import mean_ap
-from train.study import StudyResult
-from train.study_report import LABELS, PAPER_TABLE1, PAPER_TABLE2
+from train.evaluation.ap_table import mean_ap
+from train.study.report import LABELS, PAPER_TABLE1, PAPER_TABLE2
+from train.study.run import StudyResult
 
 # The paper's orderings: Table 1 (3D AP of the boxes at t) and Table 2 (sAMOTA at IoU 0.25, filtered tracklets).
 TABLE1_ORDER = ("late", "early", "single")

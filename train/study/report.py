@@ -7,8 +7,8 @@ import io
 from pathlib import Path
 
 from simgen.atomic import atomic_path
-from train.evaluate import CENTRE_THRESHOLDS_M, IOU_THRESHOLD, mean_ap
-from train.study import StudyDataset, StudyResult, TrackerResult
+from train.evaluation.ap_table import CENTRE_THRESHOLDS_M, IOU_THRESHOLD, mean_ap
+from train.study.run import StudyDataset, StudyResult, TrackerResult
 
 LABELS = {"single": "Single Frame", "early": "Early Fusion", "late": "Late Fusion"}
 # Table 1 of the paper: (method, density) -> AP of the boxes at t, BEV and 3D, IoU 0.5.
@@ -79,7 +79,7 @@ def table1_markdown(result: StudyResult, command: str) -> str:
         *header(result, command),
     ]
     lines += [
-        "AP in percent on the val clips by KITTI's official rule (train.metrics.detection), IoU 0.5, 40 recall "
+        "AP in percent on the val clips by KITTI's official rule (train.evaluation.detection), IoU 0.5, 40 recall "
         "points (11 in the R11 columns), on two sets of labelled boxes: *all* of them (as the paper) and the "
         "*visible* ones (at least one point in t-2..t; a detection on an invisible box counts neither way). "
         "The paper's numbers (its Table 1, same density) beside them.",
@@ -118,7 +118,7 @@ def table1_markdown(result: StudyResult, command: str) -> str:
         "", "## Where the 3D AP goes (TIDE's idea for 3D boxes)", "",
         "Each detection at t is matched to the nearest labelled box within 1 m (greedily by score); then, one error "
         "at a time, the matched detections take that part of their labelled box and 3D AP (R40, IoU 0.5, all boxes) "
-        "is scored again (train.metrics.decomposition). The gain is what the error costs; *all* fixes every part. "
+        "is scored again (train.evaluation.decomposition). The gain is what the error costs; *all* fixes every part. "
         "Misses: labelled boxes no detection reaches within 1 m, which no fix recovers; invisible: no point in t-2..t.",
         "",
         "| Method | 3D AP | + centre x-y | + size | + heading | + z | + all | matched / detections | missed / boxes "
@@ -175,14 +175,14 @@ def table2_markdown(result: StudyResult, command: str) -> str:
         )
     first = next(iter(filters.values()))
     lines += [
-        "AB3DMOT's metrics (train.metrics.tracking) on the val clips against the labelled boxes and track ids; "
+        "AB3DMOT's metrics (train.evaluation.tracking) on the val clips against the labelled boxes and track ids; "
         "sAMOTA, AMOTA, AMOTP, MOTA, MOTP in percent; MOTA, MOTP, IDS and FRAG at the score threshold of the best "
         "MOTA. "
         "HOTA: TrackEval's, on 3D IoU; centre HOTA: the same on the pitch plane with SoccerNet GS-HOTA's 5 m Gaussian "
         "tolerance on centre distance (beyond the paper). AB3DMOT tracks the boxes at t; the 3D DIoU tracker the whole "
         "tracklets. Every tracker is defined by its file in train/configs/tracking/.",
         "",
-        f"Tracklets for tracking (train.tracklet_filter): each tracker gets its own filter, chosen on the train "
+        f"Tracklets for tracking (train.study.tracklet_filter): each tracker gets its own filter, chosen on the train "
         f"clips ({first.train_frames} frames), never val: of the grid at the end, the filter under which that tracker "
         f"reaches its highest sAMOTA (IoU 0.25) on the train clips' tracklets. Val tracklets per frame: "
         f"{first.val_tracklets_per_frame[0]:.1f} as detected.",

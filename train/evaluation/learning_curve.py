@@ -17,7 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from simgen.atomic import atomic_path
-from train.evaluate import ApRow, mean_ap
+from train.evaluation.ap_table import ApRow, mean_ap
 
 CSV_NAME = "learning_curve.csv"
 PNG_NAME = "learning_curve.png"
@@ -27,7 +27,7 @@ FIELDS = ("iteration", "bev_r40", "3d_r40", "bev_r11", "3d_r11", "truth", "detec
 @dataclass(frozen=True)
 class CurvePoint:
     iteration: int
-    rows: list[ApRow]  # AP rows of one val pass (train.evaluate.average_precisions)
+    rows: list[ApRow]  # AP rows of one val pass (train.evaluation.ap_table.average_precisions)
     eval_s: float
 
 

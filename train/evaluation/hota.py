@@ -20,8 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
+from train.evaluation.tracking import Clip, TrackedClip
 from train.geometry import iou_3d
-from train.metrics.tracking import Clip, TrackedClip
 
 ALPHAS = np.arange(0.05, 0.99, 0.05)
 GS_TOLERANCE_M = 5.0  # SoccerNet GS-HOTA's tau

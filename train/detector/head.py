@@ -15,9 +15,9 @@ import torch.nn.functional as F
 from torch import nn
 
 from train.config import Backbone2dConfig, DataConfig, HeadConfig
-from train.models.anchors import anchor_grid
-from train.models.registry import BOX_CODERS, HEADS
-from train.models.target_assigner import AnchorTargetAssigner
+from train.detector.anchors import anchor_grid
+from train.detector.registry import BOX_CODERS, HEADS
+from train.detector.target_assigner import AnchorTargetAssigner
 
 
 @dataclass(frozen=True)

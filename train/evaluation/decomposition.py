@@ -3,7 +3,7 @@
 Each detection is matched, greedily by score, to the nearest free labelled box whose centre is within
 `MATCH_M` on the pitch plane (the centre-distance AP's rule). Then, one error at a time, the matched
 detections get that part of their labelled box (centre x-y, size, heading or centre height), and 3D
-AP (KITTI's R40 at IoU 0.5, train.metrics.detection) is scored again; "all" gives them the whole
+AP (KITTI's R40 at IoU 0.5, train.evaluation.detection) is scored again; "all" gives them the whole
 box. The gain over the AP as detected is what that error costs. Labelled boxes no detection reaches
 within `MATCH_M` are misses, which no fix recovers; how many of them are invisible (no point in
 t-2..t) says how many a LiDAR detector could not have found.
@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from train.metrics.detection import FrameBoxes, detection_ap, similarities
+from train.evaluation.detection import FrameBoxes, detection_ap, similarities
 
 MATCH_M = 1.0  # a detection within this of a labelled box's centre found it (metres, pitch plane)
 # The parts of a box a fix replaces: centre x-y, size (length, width, height), heading, centre height.

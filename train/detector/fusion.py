@@ -6,7 +6,7 @@ Conv3d with no temporal padding (3 frames -> 1), BatchNorm and ReLU; the levels 
 concatenated to (3C, H, W). A 3x3x3 kernel that spans all three frames is a 3x3 Conv2d over the
 frames' channels side by side (3C -> C): computed so, with the Conv3d's weights, on a view of the
 frames (no copy), it takes about half the CPU time of torch's Conv3d. The val pass
-(train.streaming) splits it further: each frame convolved once with each temporal tap, the
+(train.detector.streaming) splits it further: each frame convolved once with each temporal tap, the
 window's sum taken from the three frames' terms.
 """
 
@@ -17,7 +17,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from train.config import EarlyFusionConfig, LateFusionConfig, NoFusionConfig
-from train.models.registry import FUSIONS
+from train.detector.registry import FUSIONS
 
 
 class ConcatLevels(nn.Module):

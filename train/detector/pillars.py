@@ -5,7 +5,7 @@ pillar's centre (optionally every input divided by its span: `scale_inputs`), go
 BatchNorm + ReLU, and every pillar keeps the per-channel maximum over its points. There is no cap on
 points or pillars. The loader groups the points into pillars (train.data.collate); decoration and
 pooling run on the model's device, with no host synchronisation. The pseudo-images stay sparse
-(train.models.sparse_canvas): the backbone's first convolution reads the pillars directly.
+(train.detector.sparse_canvas): the backbone's first convolution reads the pillars directly.
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ import torch
 from torch import nn
 
 from train.config import POINT_FEATURES, DataConfig, PillarEncoderConfig
-from train.models.registry import PILLAR_ENCODERS
-from train.models.sparse_canvas import SparseCanvas
+from train.detector.registry import PILLAR_ENCODERS
+from train.detector.sparse_canvas import SparseCanvas
 
 
 @PILLAR_ENCODERS.register("pillar_vfe")

@@ -16,9 +16,9 @@ import torch
 from numpy.typing import NDArray
 
 from train.config import HeadConfig
+from train.detector.anchors import AnchorGrid
+from train.detector.box_coder import BoxCoder, direction_bin
 from train.geometry import bev_iou
-from train.models.anchors import AnchorGrid
-from train.models.box_coder import BoxCoder, direction_bin
 
 OBJECT_SPAN_M = 3.0  # objects up to ~3 m across are searched for overlapping anchors
 

@@ -15,8 +15,8 @@ import torch
 import torch.nn.functional as F
 
 from train.config import LossConfig
-from train.models.head import HeadOutput
-from train.models.target_assigner import BatchTargets
+from train.detector.head import HeadOutput
+from train.detector.target_assigner import BatchTargets
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """The detector a config describes, assembled from named parts as OpenPCDet does.
 
 `model.pillar_encoder`, `model.backbone_2d`, `model.fusion` and `model.head` each name a part
-registered in train.models.registry: the paper's single-frame, early- and late-fusion models are
+registered in train.detector.registry: the paper's single-frame, early- and late-fusion models are
 three configs, not three code paths.
 """
 
@@ -13,9 +13,9 @@ import torch
 from torch import nn
 
 from train.config import POINT_FEATURES, DetectorConfig
-from train.models import backbone, fusion, head, pillars  # noqa: F401 - their parts register themselves
-from train.models.head import HeadOutput
-from train.models.registry import BACKBONES_2D, FUSIONS, HEADS, PILLAR_ENCODERS
+from train.detector import backbone, fusion, head, pillars  # noqa: F401 - their parts register themselves
+from train.detector.head import HeadOutput
+from train.detector.registry import BACKBONES_2D, FUSIONS, HEADS, PILLAR_ENCODERS
 
 
 class PillarBatch(Protocol):
@@ -51,7 +51,7 @@ class Detector(nn.Module):
 
     def canvas_levels(self, batch: PillarBatch, canvases: int) -> list[torch.Tensor]:
         """The backbone's levels (canvases, C_i, H, W) of the batch's pillars, one per canvas: the part of
-        the model that sees one canvas alone (train.streaming runs it once per frame)."""
+        the model that sees one canvas alone (train.detector.streaming runs it once per frame)."""
         return self.backbone_2d(self.pillar_encoder(batch.features, batch.pillar, batch.point_pillar, canvases))
 
 

@@ -1,1 +1,0 @@
-"""Evaluation metrics for the tracker (and, later, the detector)."""

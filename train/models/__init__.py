@@ -1,1 +1,0 @@
-"""The PointPillars tracklet detector: pillar features, backbone, temporal fusion, SSD head."""
