@@ -139,7 +139,7 @@ def test_checkpoint_round_trip_and_foreign_files(tmp_path):
 def test_every_part_name_a_config_allows_has_a_builder():
     from typing import get_args
 
-    from train.config import Backbone2dConfig, BoxCoderConfig, HeadConfig, PillarEncoderConfig
+    from train.config import Backbone2dConfig, BoxCoderConfig, DenseHeadConfig, PillarEncoderConfig
     from train.detector.registry import BACKBONES_2D, BOX_CODERS, FUSIONS, HEADS, PILLAR_ENCODERS
 
     def names(section) -> set[str]:
@@ -153,7 +153,7 @@ def test_every_part_name_a_config_allows_has_a_builder():
     assert fusions == set(FUSIONS.builders) == {"none", "early", "late"}
     assert names(PillarEncoderConfig) == set(PILLAR_ENCODERS.builders)
     assert names(Backbone2dConfig) == set(BACKBONES_2D.builders)
-    assert names(HeadConfig) == set(HEADS.builders)
+    assert names(DenseHeadConfig) == set(HEADS.builders)
     assert names(BoxCoderConfig) == set(BOX_CODERS.builders)
 
 

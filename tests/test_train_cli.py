@@ -75,12 +75,16 @@ def test_a_learning_curve_without_val_clips_fails_before_training(trained, tmp_p
     assert not (tmp_path / "run" / "checkpoint.pt").exists()
 
 
+def _on_every_clip(capsys, command: str, run, dataset, out):
+    """`simgen-train COMMAND` of the run's checkpoint on every clip of the dataset, output in OUT."""
+    checkpoint = run / "checkpoint.pt"
+    return call_train(capsys, command, checkpoint, "--dataset", dataset, "-o", out, "--split", "all", "--quiet")
+
+
 @pytest.mark.engine
 def test_eval_writes_ap_for_the_three_boxes(trained, tmp_path, capsys):
     dataset, run = trained
-    code, err = call_train(
-        capsys, "eval", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet"
-    )
+    code, err = _on_every_clip(capsys, "eval", run, dataset, tmp_path)
     assert code == 0, err
     rows = list(csv.DictReader(open(tmp_path / "ap.csv")))
     measures = [("bev", "0.5"), ("3d", "0.5"), ("centre", "0.25"), ("centre", "0.5"), ("centre", "1.0")]
@@ -99,9 +103,7 @@ def test_eval_writes_ap_for_the_three_boxes(trained, tmp_path, capsys):
 @pytest.mark.engine
 def test_detect_writes_tracklets_and_kitti_labels(trained, tmp_path, capsys):
     dataset, run = trained
-    code, err = call_train(
-        capsys, "detect", run / "checkpoint.pt", "--dataset", dataset, "-o", tmp_path, "--split", "all", "--quiet"
-    )
+    code, err = _on_every_clip(capsys, "detect", run, dataset, tmp_path)
     assert code == 0, err
     tracklets = read_tracklets(tmp_path / "tracklets" / "clip_0000.npz")
     assert tracklets.boxes.shape[1:] == (3, 7) and tracklets.offsets.tolist() == [-2, -1, 0]

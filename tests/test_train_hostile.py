@@ -428,17 +428,8 @@ def test_generated_hostile_detector_configs_are_refused_in_one_line(world):
     def run_case(case):
         kind, document = case
         _write(config, document)
-        return kind, [
-            "fit",
-            config,
-            "--dataset",
-            world["dataset"],
-            "-o",
-            world["out"] / "run",
-            "--quiet",
-            "--device",
-            "cpu",
-        ]
+        return kind, ["fit", config, "--dataset", world["dataset"], "-o", world["out"] / "run", "--quiet",
+                      "--device", "cpu"]
 
     kinds = _check_generated(world, _detector_case(), DETECTOR_CONFIGS, run_case)
     config.unlink()
@@ -634,19 +625,9 @@ def test_generated_hostile_checkpoints_are_refused_in_one_line(world):
             checkpoint.write_bytes(payload)
         else:
             torch.save(payload, checkpoint)
-        return kind, [
-            kind.split()[0],
-            checkpoint,
-            "--dataset",
-            world["dataset"],
-            "-o",
-            world["out"] / "eval",
-            "--split",
-            "all",
-            "--quiet",
-            "--device",
-            "cpu",
-        ]
+        command = kind.split()[0]
+        return kind, [command, checkpoint, "--dataset", world["dataset"], "-o", world["out"] / "eval", "--split", "all",
+                      "--quiet", "--device", "cpu"]
 
     kinds = _check_generated(world, _checkpoint_case(), CHECKPOINTS, run_case)
     checkpoint.unlink()

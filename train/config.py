@@ -181,7 +181,7 @@ class BoxCoderConfig(Strict):
     name: Literal["residual"] = "residual"  # SECOND's residual coding (train.detector.box_coder)
 
 
-class HeadConfig(Strict):
+class DenseHeadConfig(Strict):
     """SSD-style dense head: per anchor a score, K boxes (t-2, t-1, t or t only) and a direction bin."""
 
     name: Literal["anchor_head"] = "anchor_head"
@@ -197,7 +197,7 @@ class ModelConfig(Strict):
     pillar_encoder: PillarEncoderConfig = PillarEncoderConfig()
     backbone_2d: Backbone2dConfig = Backbone2dConfig()
     fusion: FusionConfig
-    head: HeadConfig = HeadConfig()
+    head: DenseHeadConfig = DenseHeadConfig()
 
     @property
     def method(self) -> str:

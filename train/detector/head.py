@@ -14,7 +14,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from train.config import Backbone2dConfig, DataConfig, HeadConfig
+from train.config import Backbone2dConfig, DataConfig, DenseHeadConfig
 from train.detector.anchors import anchor_grid
 from train.detector.registry import BOX_CODERS, HEADS
 from train.detector.target_assigner import AnchorTargetAssigner
@@ -35,7 +35,7 @@ class HeadOutput:
 
 @HEADS.register("anchor_head")
 class DetectionHead(nn.Module):
-    def __init__(self, section: HeadConfig, data: DataConfig, backbone: Backbone2dConfig, inputs: int) -> None:
+    def __init__(self, section: DenseHeadConfig, data: DataConfig, backbone: Backbone2dConfig, inputs: int) -> None:
         super().__init__()
         grid = anchor_grid(section.anchor, data, backbone.output_stride)
         self.box_coder = BOX_CODERS.build(section.box_coder)

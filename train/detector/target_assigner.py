@@ -15,7 +15,7 @@ import numpy as np
 import torch
 from numpy.typing import NDArray
 
-from train.config import HeadConfig
+from train.config import DenseHeadConfig
 from train.detector.anchors import AnchorGrid
 from train.detector.box_coder import BoxCoder, direction_bin
 from train.geometry import bev_iou
@@ -57,7 +57,7 @@ class BatchTargets:
 class AnchorTargetAssigner:
     """Targets of one sample's objects on a grid of anchors; picklable, for the loader's workers."""
 
-    def __init__(self, grid: AnchorGrid, head: HeadConfig, coder: BoxCoder) -> None:
+    def __init__(self, grid: AnchorGrid, head: DenseHeadConfig, coder: BoxCoder) -> None:
         self.grid, self.coder = grid, coder
         self.match_iou, self.unmatch_iou = head.anchor.match_iou, head.anchor.unmatch_iou
         self.dir_offset_rad = head.dir_offset_rad
