@@ -5,9 +5,10 @@ at 10 Hz with scripted meetings and crossings; tracklets with noise, missed runs
 false and duplicate detections), in alternating rounds so that load on the shared machine hits all
 alike. Baseline: AB3DMOT, the tracker a user would otherwise run for the same work. AB3DMOT's own
 code is not on PyPI (pure-ab-3d-mot, a refactoring of it that is, pins numpy <= 2.3.4, below this
-project's lock), so the baseline is train.tracking.ab3dmot, our reimplementation: its tracks are
-exact against AB3DMOT's evaluation, but it keeps its tracks in arrays as our tracker does, so it is
-likely faster than AB3DMOT's per-track Python code and the ratio favours the baseline. Beside it,
+project's lock), so the baseline is our reimplementation (train.tracking.tracker run by
+train/configs/tracking/1_ab3dmot.yaml): its tracks are exact against AB3DMOT's evaluation, but it
+keeps its tracks in arrays as our tracker does, so it is likely faster than AB3DMOT's per-track
+Python code and the ratio favours the baseline. Beside it,
 for scale, the bare per-frame cost of an unpruned association: two 22 x 22 ``diou_3d`` matrices
 (tracklets at t-2 and t-1 against last frame's boxes) and one ``linear_sum_assignment``.
 
@@ -46,10 +47,9 @@ from train.evaluation.hota import hota
 from train.evaluation.tracking import evaluate_tracking
 from train.geometry import diou_3d
 from train.study.run import TRACKER_CONFIGS
-from train.tracking.ab3dmot import Ab3dmot
 from train.tracking.clip import make_tracker
 from train.tracking.config import load_tracker_configs
-from train.tracking.diou_tracker import DiouTracker
+from train.tracking.tracker import Tracker
 from train.tracking.types import Tracklets
 
 FULL, AB3DMOT_CONFIG = shipped_tracker(FULL_TRACKER), shipped_tracker(AB3DMOT)
@@ -83,12 +83,12 @@ def main() -> None:
     previous = [clip.boxes[max(f - 1, 0)] for f in range(args.frames)]
 
     def ours() -> None:
-        tracker = DiouTracker(FULL)
+        tracker = Tracker(FULL)
         for t in tracklets:
             tracker.step(t)
 
     def ab3dmot() -> None:
-        tracker = Ab3dmot(AB3DMOT_CONFIG)
+        tracker = Tracker(AB3DMOT_CONFIG)
         for t in tracklets:
             tracker.step(t)
 
@@ -105,7 +105,7 @@ def main() -> None:
     speed_rows = [
         [label, f"{median[name]:,.0f}", f"{median[name] / median['AB3DMOT']:.2f}"]
         for name, label in [
-            ("AB3DMOT", "baseline: AB3DMOT (our reimplementation, train.tracking.ab3dmot)"),
+            ("AB3DMOT", "baseline: AB3DMOT (our reimplementation, 1_ab3dmot.yaml)"),
             ("ours", "3D DIoU tracker (ours, all modules on)"),
             ("association", "for scale: 2 x diou_3d 22x22 + linear_sum_assignment, no track keeping"),
         ]
@@ -145,7 +145,7 @@ def main() -> None:
         "alternating; BLAS threads 1. " + machine(numpy=np.__version__),
         "Baseline: AB3DMOT, what a user would otherwise run. AB3DMOT's own code is not on PyPI, and "
         "pure-ab-3d-mot (a refactoring of it that is) pins numpy <= 2.3.4, below this project's lock; so the "
-        "baseline is our reimplementation (train.tracking.ab3dmot), exact against AB3DMOT's evaluation but "
+        "baseline is our reimplementation (our tracker, 1_ab3dmot.yaml), exact against AB3DMOT's evaluation but "
         "keeping its tracks in arrays as our tracker does, likely faster than AB3DMOT's own per-track code. "
         "For scale, the bare per-frame cost of an unpruned association (two 22 x 22 `diou_3d` matrices and "
         "one `linear_sum_assignment`, no track keeping).",

@@ -15,11 +15,10 @@ from tests.support.tracking_clips import (
 from train.detector.nms import nms_bev, nms_centre
 from train.study.run import TRACKER_CONFIGS
 from train.study.tracklet_filter import TrackletFilter, apply_filter, choose_filters, filter_tracklets
-from train.tracking.ab3dmot import Ab3dmot
 from train.tracking.clip import make_tracker
 from train.tracking.config import load_tracker_config, load_tracker_configs
-from train.tracking.diou_tracker import DiouTracker
 from train.tracking.motion_model import PLAYER_KALMAN, KalmanConfig
+from train.tracking.tracker import Tracker
 from train.tracking.types import Tracklets
 
 PLAYER = np.array([0.0, 0.0, 0.9, 0.6, 0.8, 1.8, 0.0])
@@ -31,8 +30,10 @@ def test_the_shipped_configs_are_the_papers_table_2_rows():
     assert names == [
         "AB3DMOT", "AB3DMOT (player Kalman)", "3D DIoU", "3D DIoU + split", "3D DIoU + birth/death", FULL_TRACKER,
     ]
-    assert all(isinstance(make_tracker(c), Ab3dmot) for c in configs[:2])
-    assert all(isinstance(make_tracker(c), DiouTracker) for c in configs[2:])
+    assert all(isinstance(make_tracker(c), Tracker) for c in configs)
+    ab3dmot = [(c.association.cascade, c.life_cycle.warm_up, c.output) for c in configs[:2]]
+    assert ab3dmot == [(False, True, "kalman")] * 2  # AB3DMOT: one matching, its warm-up, the filter's boxes
+    assert {(c.association.cascade, c.life_cycle.warm_up, c.output) for c in configs[2:]} == {(True, False, "tracklet")}
 
 
 def test_ab3dmot_with_the_player_kalman_differs_from_ab3dmot_only_in_its_motion_model():

@@ -17,10 +17,9 @@ from tests.support.tracking_clips import (
 from train.evaluation.tracking import evaluate_tracking
 from train.study.run import TRACKER_CONFIGS
 from train.study.tracklet_filter import TrackletFilter, apply_filter, choose_filters
-from train.tracking.ab3dmot import Ab3dmot
 from train.tracking.clip import make_tracker, track_clip
 from train.tracking.config import load_tracker_configs
-from train.tracking.diou_tracker import DiouTracker
+from train.tracking.tracker import Tracker
 from train.tracking.types import TrackedFrame, Tracklets
 
 PLAYER = np.array([0.0, 0.0, 0.9, 0.6, 0.8, 1.8, 0.0])
@@ -50,20 +49,20 @@ def ids_over_time(out: list[TrackedFrame]) -> list[list[int]]:
 def test_new_trajectories_are_output_after_three_consecutive_frames():
     flicker = walker(0.0, 0.3, range(2))  # two frames, then gone
     steady = walker(20.0, 0.3, range(5, 12))
-    out = run(DiouTracker(shipped_tracker(FULL_TRACKER)), frames_of(flicker, steady, n_frames=12))
+    out = run(Tracker(shipped_tracker(FULL_TRACKER)), frames_of(flicker, steady, n_frames=12))
     assert ids_over_time(out) == [[]] * 7 + [[1]] * 5
 
 
 def test_a_confirmed_trajectory_back_fills_its_first_two_frames_from_its_tracklet():
     steady = walker(20.0, 0.3, range(5, 12))
-    out = track_clip(DiouTracker(shipped_tracker(FULL_TRACKER)), frames_of(steady, n_frames=12))
+    out = track_clip(Tracker(shipped_tracker(FULL_TRACKER)), frames_of(steady, n_frames=12))
     assert ids_over_time(out) == [[]] * 5 + [[0]] * 7
     np.testing.assert_array_equal(out[5].boxes[0], steady[7][0])  # the confirming tracklet's box at t-2
     np.testing.assert_array_equal(out[6].boxes[0], steady[7][1])  # and at t-1
-    online = run(DiouTracker(shipped_tracker(FULL_TRACKER)), frames_of(steady, n_frames=12))
+    online = run(Tracker(shipped_tracker(FULL_TRACKER)), frames_of(steady, n_frames=12))
     assert len(online[7].backfill) == 2 and ids_over_time(online)[5:7] == [[], []]
     config = shipped_tracker(FULL_TRACKER, life_cycle={"backfill": False})
-    no_backfill = track_clip(DiouTracker(config), frames_of(steady, n_frames=12))
+    no_backfill = track_clip(Tracker(config), frames_of(steady, n_frames=12))
     assert ids_over_time(no_backfill) == [[]] * 7 + [[0]] * 5
 
 
@@ -71,18 +70,18 @@ def test_a_track_scores_the_mean_of_its_matched_tracklets():
     player = walker(0.0, 0.3, range(8))
     scores = [0.9, 0.3, 0.6, 0.2, 0.8, 0.8, 0.4, 0.4]
     frames = [Tracklets(player[f][None], [scores[f]]) for f in range(8)]
-    out = track_clip(DiouTracker(shipped_tracker(FULL_TRACKER)), frames)
+    out = track_clip(Tracker(shipped_tracker(FULL_TRACKER)), frames)
     assert out[0].scores.tolist() == out[1].scores.tolist() == out[2].scores.tolist() == [pytest.approx(0.6)]
     for f in range(3, 8):
         assert out[f].scores[0] == pytest.approx(np.mean(scores[: f + 1]))
-    ab = track_clip(Ab3dmot(shipped_tracker(AB3DMOT)), [Tracklets(player[f][None], [scores[f]]) for f in range(8)])
+    ab = track_clip(Tracker(shipped_tracker(AB3DMOT)), [Tracklets(player[f][None], [scores[f]]) for f in range(8)])
     assert ab[4].scores[0] == pytest.approx(np.mean(scores[:5]))
 
 
 def test_dying_trajectory_comes_back_within_six_frames():
     gap = set(range(10, 16))  # 6 missed frames
     player = {f: b for f, b in walker(0.0, 0.3, range(30)).items() if f not in gap}
-    out = run(DiouTracker(shipped_tracker(FULL_TRACKER)), frames_of(player, n_frames=30))
+    out = run(Tracker(shipped_tracker(FULL_TRACKER)), frames_of(player, n_frames=30))
     assert ids_over_time(out)[2:] == [[0]] * 28
     # While dying it is output where the Kalman filter carries it: on the walker's line.
     for f in sorted(gap):
@@ -92,14 +91,14 @@ def test_dying_trajectory_comes_back_within_six_frames():
 def test_dying_trajectory_ends_after_six_frames():
     gap = set(range(10, 17))  # 7 missed frames
     player = {f: b for f, b in walker(0.0, 0.3, range(30)).items() if f not in gap}
-    out = run(DiouTracker(shipped_tracker(FULL_TRACKER)), frames_of(player, n_frames=30))
+    out = run(Tracker(shipped_tracker(FULL_TRACKER)), frames_of(player, n_frames=30))
     assert ids_over_time(out)[16] == [] and ids_over_time(out)[17:19] == [[], []]
     assert ids_over_time(out)[19:] == [[1]] * 11
 
 
 def test_without_birth_and_death_tracklets_are_output_at_once_and_end_at_once():
     player = {f: b for f, b in walker(0.0, 0.3, range(12)).items() if f != 6}
-    out = run(DiouTracker(shipped_tracker(DIOU)), frames_of(player, n_frames=12))
+    out = run(Tracker(shipped_tracker(DIOU)), frames_of(player, n_frames=12))
     assert ids_over_time(out) == [[0]] * 6 + [[]] + [[1]] * 5
 
 
@@ -126,7 +125,7 @@ def meeting_tracklets(fuse: bool) -> tuple[list[Tracklets], np.ndarray]:
 
 def test_split_keeps_both_players_through_a_long_meeting():
     frames, _ = meeting_tracklets(fuse=True)
-    out = run(DiouTracker(shipped_tracker(FULL_TRACKER)), frames)
+    out = run(Tracker(shipped_tracker(FULL_TRACKER)), frames)
     first = {int(i): b for i, b in zip(out[5].ids, out[5].boxes)}
     left_id = min(first, key=lambda i: first[i][0])
     for f in range(5, len(frames)):
@@ -135,7 +134,7 @@ def test_split_keeps_both_players_through_a_long_meeting():
         assert left[0] < out[f].boxes[out[f].ids != left_id][0][0]  # the left player stays left
     np.testing.assert_allclose(out[-1].boxes[np.argsort(out[-1].boxes[:, 0]), 0], [-4.0, 4.0], atol=1e-9)
 
-    unsplit = run(DiouTracker(shipped_tracker(BIRTH_DEATH)), frames)
+    unsplit = run(Tracker(shipped_tracker(BIRTH_DEATH)), frames)
     assert max(max(o.ids, default=0) for o in unsplit) >= 2  # one of them died and came back new
 
 
@@ -143,7 +142,7 @@ def test_exact_tracklets_give_no_id_switch_over_a_whole_clip():
     clip = simulate_players(PlayersConfig(n_frames=300, meetings=3, crossings=3), np.random.default_rng(1))
     assert any(e.kind == "meeting" for e in clip.encounters)
     tracklets = make_tracklets(clip, DetectionNoise(), np.random.default_rng(0))
-    out = run(DiouTracker(shipped_tracker(FULL_TRACKER)), tracklets)
+    out = run(Tracker(shipped_tracker(FULL_TRACKER)), tracklets)
     # From frame 2 on, every player is output in every frame, always under the same id.
     for frame, truth in zip(out[2:], clip.boxes[2:]):
         order = np.argsort(frame.ids)
@@ -156,7 +155,7 @@ def test_exact_tracklets_give_no_id_switch_over_a_whole_clip():
 def test_ab3dmot_life_cycle():
     late = walker(10.0, 0.3, range(5, 20))
     player = {f: b for f, b in walker(0.0, 0.3, range(20)).items() if f not in (8, 12, 13)}
-    out = run(Ab3dmot(shipped_tracker(AB3DMOT)), frames_of(player, late, n_frames=20))
+    out = run(Tracker(shipped_tracker(AB3DMOT)), frames_of(player, late, n_frames=20))
     ids = ids_over_time(out)
     assert ids[:3] == [[0]] * 3  # every track is output in the first 3 frames of a clip
     assert ids[5:7] == [[0]] * 2 and ids[7] == [0, 1]  # the late one after 3 hits
@@ -179,7 +178,7 @@ def ablation():
     truth = [c.frames() for c in clips]
     results = {}
     for name, config in list(configs.items()) + [("ab3dmot", None)]:
-        out = [run(Ab3dmot(shipped_tracker(AB3DMOT)) if config is None else DiouTracker(config), t) for t in tracklets]
+        out = [run(Tracker(shipped_tracker(AB3DMOT) if config is None else config), t) for t in tracklets]
         metrics = evaluate_tracking(truth, out)
         results[name] = (metrics.best.ids, metrics.best.frag, metrics.samota)
     return results

@@ -33,6 +33,8 @@ class AssociationConfig(Strict):
     # paper does not give them; t-1 weighs more because both its boxes come from later, better-supported
     # regressions (the trajectory's box at t-1 was regressed as a tracklet's current box).
     weights: tuple[Share, Share] = (0.4, 0.6)
+    # matched in turn: normal, dying (at dying_lower_bound), then new tracks; off: all at once (AB3DMOT)
+    cascade: bool = True
 
     @model_validator(mode="after")
     def _sum(self) -> AssociationConfig:

@@ -8,9 +8,8 @@ from typing import Protocol
 
 import numpy as np
 
-from train.tracking.ab3dmot import Ab3dmot
 from train.tracking.config import TrackerConfig
-from train.tracking.diou_tracker import DiouTracker
+from train.tracking.tracker import Tracker
 from train.tracking.types import TrackedFrame, Tracklets
 
 
@@ -19,8 +18,8 @@ class OnlineTracker(Protocol):
 
 
 def make_tracker(config: TrackerConfig) -> OnlineTracker:
-    """A fresh tracker (one per clip) for the config's association: AB3DMOT's 3D IoU or the paper's DIoU."""
-    return Ab3dmot(config) if config.association.method == "iou_3d" else DiouTracker(config)
+    """A fresh tracker (one per clip) run by the config: AB3DMOT's or the paper's."""
+    return Tracker(config)
 
 
 def merge(frame: TrackedFrame, more: TrackedFrame) -> TrackedFrame:

@@ -1,9 +1,10 @@
 """A tracker as a config file (as SimpleTrack's): association, life cycle, motion model and split.
 
-One YAML file per tracker (train/configs/tracking/): the paper's 3D DIoU tracker with any of its
-modules, or the AB3DMOT baseline. Validated by pydantic: an unknown key, a wrong type or range, or
-a module the chosen association cannot use is one `UserError` line naming the field. The trackers
-take the validated `TrackerConfig` itself; each section is the config of the module that uses it
+One YAML file per tracker (train/configs/tracking/), all run by the one `tracker.Tracker`: the
+paper's 3D DIoU tracker with any of its modules, or the AB3DMOT baseline. Validated by pydantic: an
+unknown key, a wrong type or range, or a module the chosen association cannot use is one `UserError`
+line naming the field. The tracker
+takes the validated `TrackerConfig` itself; each section is the config of the module that uses it
 (`association.AssociationConfig`, `life_cycle.LifeCycleConfig`, `motion_model.MOTION_MODELS`).
 
 Every number is bounded: thresholds are DIoU or IoU values, in [-1, 1]; frame counts at most
@@ -13,6 +14,7 @@ Every number is bounded: thresholds are DIoU or IoU values, in [-1, 1]; frame co
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 from pydantic import model_validator
 
@@ -30,6 +32,7 @@ class TrackerConfig(Strict):
     life_cycle: LifeCycleConfig
     motion_model: MotionModel  # constant-velocity Kalman filter's variances
     split: bool  # the paper's split of fused tracklets (tracklet_diou only)
+    output: Literal["tracklet", "kalman"] = "tracklet"  # a matched track's box: its tracklet's at t or the filter's
 
     @model_validator(mode="after")
     def _modules(self) -> TrackerConfig:

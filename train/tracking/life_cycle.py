@@ -28,7 +28,8 @@ class LifeCycleConfig(Strict):
     max_misses: int = Field(6, ge=0, le=MAX_TRACK_FRAMES)  # consecutive misses a confirmed track survives
     tentative_max_misses: int = Field(0, ge=0, le=MAX_TRACK_FRAMES)  # and a tentative one
     backfill: bool = False  # tracklet_diou: a confirmed track's first frames output from its tracklet
-    output_dying: bool = True  # tracklet_diou: dying tracks output at their predicted box
+    output_dying: bool = True  # dying tracks output at their predicted box
+    warm_up: bool = False  # every track output in a clip's first min_hits frames (AB3DMOT's code)
 
 
 def hits_to_confirm(config: LifeCycleConfig) -> int:

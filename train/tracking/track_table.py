@@ -1,6 +1,6 @@
 """Live tracks as one table of per-track arrays: ids, recent boxes, Kalman state, life-cycle counts.
 
-Both trackers keep their tracks here and change them a frame at a time: predict every track,
+The tracker keeps its tracks here and changes them a frame at a time: predict every track,
 write the boxes measured for the matched ones (the prediction for the others), count the frame,
 drop the dead and append the newborn.
 """

@@ -1,28 +1,28 @@
-"""The paper's 3D DIoU tracker (Sect. 3.2): tracklets linked to trajectories on overlapping frames.
+"""The one tracker: the paper's 3D DIoU tracker (Sect. 3.2) and AB3DMOT (Weng et al., 2020) are configs of it.
 
-The affinity of a tracklet (boxes at t-2, t-1, t) and a trajectory (its boxes at t-2 and t-1) is
-the weighted sum of their DIoU at t-2 and at t-1. Per frame t, Hungarian matching in turn for:
+Per frame t every track's constant-velocity Kalman filter predicts, then the association
+(``association.method``) scores tracklets against tracks: ``tracklet_diou``, the paper's weighted sum of
+the DIoU of a tracklet's boxes at t-2, t-1 and a track's (a track keeps two boxes); ``iou_3d``,
+AB3DMOT's 3D IoU of the tracklets' boxes at t and the predictions (a track keeps one box). Hungarian
+matching, pairs under the lower bound left unmatched, either at once over all tracks (AB3DMOT) or, with
+``association.cascade``, in turn for:
 
-1. Normal trajectories (confirmed, matched at t-1), lower bound -0.125.
-2. Dying trajectories (confirmed, unmatched at t-1 for up to 6 frames and carried by the Kalman
-   filter) and the normal ones left unmatched by 1, against the tracklets left: lower bound -0.5.
-   A match makes them normal again.
-3. New trajectories (not yet confirmed), lower bound -0.125, against the tracklets left. They are
-   matched after the confirmed ones, so that a duplicate detection's new trajectory cannot take a
-   player from his own (dying) trajectory.
-4. Split: a matched tracklet that fuses its trajectory with an unmatched neighbour gives both a
+1. Normal tracks (confirmed, matched at t-1), at ``lower_bound``.
+2. With birth and death, dying tracks (confirmed, unmatched for up to ``max_misses`` frames and carried
+   by the Kalman filter) and the normal ones left by 1, against the tracklets left, at
+   ``dying_lower_bound``. A match makes them normal again.
+3. New tracks (not yet confirmed), at ``lower_bound``, against the tracklets left: after the confirmed
+   ones, so that a duplicate detection's new track cannot take a player from his own (dying) track.
+4. With ``split``, a matched tracklet that fuses its track with an unmatched neighbour gives both a
    box (train.tracking.split).
 
-Tracklets still unmatched start new trajectories, output once matched in 3 consecutive frames and
-dropped at their first miss; a confirmed trajectory dies after 6 unmatched frames. When a
-trajectory is confirmed, its first two frames are output too (``backfill``, in
-``TrackedFrame.backfill``): the confirming tracklet's boxes at t-2 and t-1. A matched trajectory
-takes the tracklet's boxes at t-1 and t as its own (a dying one thus gets real boxes for the last
-frame it was carried through) and outputs the box at t; dying trajectories output their predicted
-box (``output_dying``). A trajectory's score is the mean of its matched tracklets' scores.
-
-With ``birth_death`` off, every tracklet is output from its first frame and an unmatched trajectory
-ends at once (no step 2); with ``split`` off, step 4 is skipped: the paper's ablation.
+Unmatched tracklets start tracks. Birth and death (train.tracking.life_cycle) decide which are output
+and which die; with ``backfill`` a newly confirmed track's first two frames are output too
+(``TrackedFrame.backfill``): the confirming tracklet's boxes at t-2 and t-1; with ``warm_up`` every
+track is output during a clip's first ``min_hits`` frames (AB3DMOT's code). A matched track takes the
+tracklet's boxes as its own and outputs, by ``output``, the tracklet's box at t or the Kalman filter's
+updated box (AB3DMOT); an unmatched one its predicted box. A track's score is the mean of its matched
+tracklets' scores.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from train.geometry import iou_3d
 from train.tracking import life_cycle, motion_model, split
 from train.tracking.association import diou_affinity, match
 from train.tracking.config import TrackerConfig
@@ -39,28 +40,35 @@ from train.tracking.track_table import append, end_frame, new_tracks
 from train.tracking.types import TrackedFrame, Tracklets
 
 _OVERLAP = slice(0, 2)  # a tracklet's boxes at t-2 and t-1
+_KEPT_BOXES = {"tracklet_diou": 2, "iou_3d": 1}  # a track's last boxes (t-1 and t; t), as the association needs
 
 
-class DiouTracker:
-    """Online: feed one frame's tracklets at a time to ``step``; ``config.association.method`` is
-    ``tracklet_diou``."""
+class Tracker:
+    """Online: feed one frame's tracklets at a time to ``step``; its behaviour is its config's."""
 
     def __init__(self, config: TrackerConfig) -> None:
         self.config = config
         self.kalman = MOTION_MODELS[config.motion_model]
+        self._kept = _KEPT_BOXES[config.association.method]
         self._split_rules = SplitConfig()
-        self._tracks = new_tracks(np.empty((0, 2, 7)), np.empty(0), 0, self.kalman)
+        self._tracks = new_tracks(np.empty((0, self._kept, 7)), np.empty(0), 0, self.kalman)
         self._next_id = 0
+        self._frames = 0
         self._fused: set[frozenset[int]] = set()  # ids of the pairs split at t-1
 
     def step(self, tracklets: Tracklets) -> TrackedFrame:
         cfg, life, tracks = self.config.association, self.config.life_cycle, self._tracks
         boxes, scores = tracklets.boxes, tracklets.scores
+        self._frames += 1
         predicted = motion_model.predict(tracks.kalman, self.kalman)
         confirmed = life_cycle.confirmed(tracks.hits, life)
-        loosest = np.where(confirmed & life.birth_death, cfg.dying_lower_bound, cfg.lower_bound)
-        affinity = diou_affinity(boxes[:, _OVERLAP], tracks.boxes, cfg.weights, loosest)  # (N, K)
-        source = np.full(len(tracks.ids), -1)  # each trajectory's tracklet; -1: none yet
+        dying_stage = cfg.cascade and life.birth_death
+        if cfg.method == "iou_3d":
+            affinity = iou_3d(boxes[:, -1], motion_model.state_boxes(predicted))  # (N, K)
+        else:
+            loosest = np.where(confirmed & dying_stage, cfg.dying_lower_bound, cfg.lower_bound)
+            affinity = diou_affinity(boxes[:, _OVERLAP], tracks.boxes, cfg.weights, loosest)
+        source = np.full(len(tracks.ids), -1)  # each track's tracklet; -1: none yet
         used = np.zeros(len(boxes), dtype=bool)
 
         def associate(trajectories: NDArray[np.intp], lower_bound: float) -> None:
@@ -69,13 +77,16 @@ class DiouTracker:
             source[trajectories[cols]] = free[rows]
             used[free[rows]] = True
 
-        associate(np.flatnonzero(confirmed & (tracks.misses == 0)), cfg.lower_bound)
-        if life.birth_death:
-            associate(np.flatnonzero(confirmed & (source < 0)), cfg.dying_lower_bound)
-        associate(np.flatnonzero(~confirmed), cfg.lower_bound)
+        if cfg.cascade:
+            associate(np.flatnonzero(confirmed & (tracks.misses == 0)), cfg.lower_bound)
+            if dying_stage:
+                associate(np.flatnonzero(confirmed & (source < 0)), cfg.dying_lower_bound)
+            associate(np.flatnonzero(~confirmed), cfg.lower_bound)
+        else:
+            associate(np.arange(len(tracks.ids)), cfg.lower_bound)
         matched = source >= 0
-        measured = np.zeros((len(tracks.ids), 2, 7))
-        measured[matched] = boxes[source[matched], 1:]
+        measured = np.zeros((len(tracks.ids), self._kept, 7))
+        measured[matched] = boxes[source[matched], -self._kept :]
         matched_scores = np.zeros(len(tracks.ids))
         matched_scores[matched] = scores[source[matched]]
         if self.config.split:
@@ -85,13 +96,14 @@ class DiouTracker:
         backfill = self._backfill(tracklets, source, matched & ~confirmed, matched_scores) if life.backfill else ()
         tracks = end_frame(tracks, predicted, matched, measured, matched_scores, self.kalman, life)
         born = np.flatnonzero(~used)
-        tracks = append(tracks, new_tracks(boxes[born, 1:], scores[born], self._next_id, self.kalman))
+        tracks = append(tracks, new_tracks(boxes[born, -self._kept :], scores[born], self._next_id, self.kalman))
         self._next_id += len(born)
         self._tracks = tracks
-        shown = life_cycle.confirmed(tracks.hits, life)
+        shown = life_cycle.confirmed(tracks.hits, life) | (life.warm_up and self._frames <= life.min_hits)
         if not life.output_dying:
             shown &= tracks.misses == 0
-        return TrackedFrame(tracks.boxes[shown, -1], tracks.ids[shown], tracks.scores[shown], backfill)
+        out = motion_model.state_boxes(tracks.kalman) if self.config.output == "kalman" else tracks.boxes[:, -1]
+        return TrackedFrame(out[shown], tracks.ids[shown], tracks.scores[shown], backfill)
 
     def _backfill(
         self, tracklets: Tracklets, source: NDArray[np.intp], tentative: NDArray[np.bool_], scores: NDArray[np.float64]
