@@ -121,12 +121,15 @@ def test_ray_executor_matches_local(parquet_dataset, tmp_path):
     assert manifest_files(sharded) == manifest_files(parquet_dataset[0])
 
 
-@pytest.mark.parametrize("fmt", ["kitti_tracking", "openpcdet"])
+@pytest.mark.parametrize("fmt", ["kitti_tracking", "openpcdet", "kitti"])
 def test_sharded_formats_match_whole_clips(tmp_path, fmt):
-    """kitti_tracking joins its shards' partial clips; OpenPCDet's shards write their frames in place."""
+    """kitti_tracking joins its shards' partial clips; KITTI's and OpenPCDet's shards write their frames in
+    place, and their label statistics still count the frame pair at each seam: the same manifest and card."""
     generate(tmp_path / "whole", "--format", fmt)
     generate(tmp_path / "sharded", "--format", fmt, "--shard-frames", "4", "--workers", "2")
     assert manifest_files(tmp_path / "sharded") == manifest_files(tmp_path / "whole")
+    for name in ("manifest.json", "README.md"):
+        assert (tmp_path / "sharded" / name).read_bytes() == (tmp_path / "whole" / name).read_bytes()
 
 
 def kill_when_recorded(out, pattern: str, *arguments) -> None:

@@ -28,6 +28,8 @@ from simgen.labels.statistics import LabelStatistics
 from simgen.vocab import TEAM_NAMES
 
 if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
     from simgen.labels.labelled_frame import LabelledFrame
     from simgen.scan.sensor import Sensor
 
@@ -78,6 +80,11 @@ class ClipWriter:
         self.boxes += len(frame.labels.boxes)
         labels = frame.labels
         self.labels.add(labels.track_id, labels.boxes, labels.discontinuity, labels.num_points)
+
+    def after(self, track_id: NDArray, boxes: NDArray) -> None:
+        """Count the first frame's box changes from the frame before it (boxes (H, 7) of a shard's previous frame,
+        written by another shard), as the whole clip does; before the first `add`."""
+        self.labels.add(track_id, boxes, None, None)
 
     def close(self) -> ClipRecord:
         if not self.frames:

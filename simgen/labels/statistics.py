@@ -3,8 +3,9 @@
 Kept as histograms so that frames, shards and clips add up exactly: per track and pair of consecutive
 frames, the change of length, width and height (`SIZE_BIN_M` bins) and of heading (`HEADING_BIN_DEG`
 bins), never across a placement (`FrameLabels.discontinuity`); per box, its points (a bin per count up
-to `MAX_POINTS`, the last holding more). Quantiles are read at bin centres, to half a bin. A clip
-written as shards that do not meet again (KITTI, OpenPCDet) misses the pair of frames at each seam.
+to `MAX_POINTS`, the last holding more). Quantiles are read at bin centres, to half a bin. A shard
+written in place (KITTI, OpenPCDet) counts its seam's pair from the previous frame's boxes, so a clip's
+shards add up to the whole clip.
 """
 
 from __future__ import annotations

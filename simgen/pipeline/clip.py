@@ -11,6 +11,7 @@ import math
 from collections.abc import Iterator
 
 import numpy as np
+from numpy.typing import NDArray
 
 from simgen.errors import UserError
 from simgen.labels.boxes import frame_labels, label_poses, placed_between, track_sizes, with_track_sizes
@@ -66,21 +67,11 @@ def render_frames(
     rate = scenario.scan.frame_rate_hz
     start = float(clip.time_s[0])
     sensors = scenario_sensors(scenario)
-    # labels.size: track: one size per humanoid over the whole clip, whatever part of it this call renders
-    sizes = (
-        track_sizes(clip, start + (np.arange(frame_count(scenario, clip)) + 0.5) / rate)
-        if scenario.labels.size == "track"
-        else None
-    )
+    sizes = label_sizes(scenario, clip)
     for index in range(first, stop):
         j = index % LABEL_CHUNK_FRAMES
         if j == 0 or index == first:  # labels of the chunk's frames at once (none past `stop`: no motion there)
-            chunk = index - j + np.arange(min(LABEL_CHUNK_FRAMES, stop - index + j))
-            label_times = start + (chunk + 0.5) / rate
-            keypoints, velocity, boxes = label_poses(clip, label_times)
-            boxes = boxes if sizes is None else with_track_sizes(boxes, sizes)
-            # the previous frame's label time (the same floats as its own) to the end of this frame's sweep
-            discontinuity = placed_between(clip, start + (chunk - 0.5) / rate, start + (chunk + 1) / rate)
+            label_times, keypoints, velocity, boxes, discontinuity = chunk_labels(scenario, clip, sizes, index, stop)
         frame_start = start + index / rate
         rays = frame_rays(scenario.scan, sensors, index, start)
         rng = np.random.default_rng(np.random.SeedSequence([scenario.seed, clip_index, index]))
@@ -90,3 +81,34 @@ def render_frames(
             boxes[j], keypoints[j], velocity[j], clip.track_id, clip.team, clip.role, scan.instance_id, discontinuity[j]
         )
         yield LabelledFrame(clip_name(clip_index), index, frame_start, float(label_times[j]), scan, labels)
+
+
+def label_sizes(scenario: Scenario, clip: MotionClip) -> NDArray[np.float64] | None:
+    """labels.size: track: one size (H, 3) in m per humanoid over the whole clip, whatever part of it is rendered."""
+    if scenario.labels.size != "track":
+        return None
+    rate = scenario.scan.frame_rate_hz
+    return track_sizes(clip, float(clip.time_s[0]) + (np.arange(frame_count(scenario, clip)) + 0.5) / rate)
+
+
+def chunk_labels(
+    scenario: Scenario, clip: MotionClip, sizes: NDArray | None, index: int, stop: int
+) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray]:
+    """Label times (s), keypoints, velocities, boxes and placement flags of the frames from `index` to the end
+    of its `LABEL_CHUNK_FRAMES` chunk (aligned to frame 0, cut at `stop`): the same floats whatever `index`."""
+    rate = scenario.scan.frame_rate_hz
+    start = float(clip.time_s[0])
+    j = index % LABEL_CHUNK_FRAMES
+    chunk = index - j + np.arange(min(LABEL_CHUNK_FRAMES, stop - index + j))
+    label_times = start + (chunk + 0.5) / rate
+    keypoints, velocity, boxes = label_poses(clip, label_times)
+    boxes = boxes if sizes is None else with_track_sizes(boxes, sizes)
+    # the previous frame's label time (the same floats as its own) to the end of this frame's sweep
+    discontinuity = placed_between(clip, start + (chunk - 0.5) / rate, start + (chunk + 1) / rate)
+    return label_times, keypoints, velocity, boxes, discontinuity
+
+
+def frame_boxes(scenario: Scenario, clip: MotionClip, index: int) -> NDArray[np.float32]:
+    """Frame `index`'s label boxes (H, 7), as `render_frames` labels them, without rendering its scan."""
+    boxes = chunk_labels(scenario, clip, label_sizes(scenario, clip), index, index + 1)[3]
+    return np.asarray(boxes[index % LABEL_CHUNK_FRAMES], np.float32)

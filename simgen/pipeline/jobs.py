@@ -99,7 +99,7 @@ def run_shard(job: Job, progress: Progress) -> dict:
     (the clip's own when the shard is the whole clip)."""
     from simgen.datasets.write import ClipWriter
     from simgen.motion.clip_io import read_clip_arrays
-    from simgen.pipeline.clip import clip_name, render_frames
+    from simgen.pipeline.clip import clip_name, frame_boxes, render_frames
     from simgen.scan.sensor import scenario_sensors
 
     scenario = Scenario.model_validate(job.scenario)
@@ -108,7 +108,8 @@ def run_shard(job: Job, progress: Progress) -> dict:
     plan = read_plan(root, job.clip_index)
     whole = len(plan["shards"]) == 1
     fmt = scenario.dataset.format
-    if writes_in_place(fmt, len(plan["shards"])):
+    in_place = writes_in_place(fmt, len(plan["shards"]))
+    if in_place:
         target, target_format = root, fmt
     else:
         target, target_format = shard_root(root, job.clip_index, first), "parquet"
@@ -117,6 +118,8 @@ def run_shard(job: Job, progress: Progress) -> dict:
     with ClipWriter(
         target, target_format, clip_name(job.clip_index), job.clip_index, scenario_sensors(scenario), first
     ) as writer:
+        if in_place and first > 0:  # the seam's frame pair, which no shard written in place would count
+            writer.after(clip.track_id, frame_boxes(scenario, clip, first - 1))
         for frame in render_frames(scenario, clip, job.clip_index, first, stop):
             writer.add(frame)
             progress("frame", job.clip_index, 1)
