@@ -297,22 +297,15 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--split", choices=SPLITS, default="val", help="clips to run on (default: val)")
         p.set_defaults(func=func)
 
-    p = sub.add_parser(
-        "study", help="a scenario -> its dataset -> the paper's Table 1 (AP) and Table 2 (tracking) in OUT"
-    )
-    p.add_argument(
-        "scenario", nargs="?", help="scenario YAML (scenarios/); its dataset is DATASETS/<name>, made if missing"
-    )
-    p.add_argument(
-        "--preset",
-        choices=sorted(PRESETS),
-        help="instead of a scenario: `paper` runs the paper's Table 1 (x1: "
-        "single, early, late; x2: single, late) and Table 2 with the paper-size configs (train/configs/paper/, "
-        "for a GPU: docs/gpu_study.md) into OUT/paper_x1/ and OUT/paper_x2/",
-    )
-    p.add_argument(
-        "-o", "--output", required=True, help="output folder (created): table1/2.md and .csv, a run per model"
-    )
+    p = sub.add_parser("study", help="a scenario -> its dataset -> the paper's Table 1 (AP) and Table 2 (tracking) "
+                       "in OUT")
+    p.add_argument("scenario", nargs="?", help="scenario YAML (scenarios/); its dataset is DATASETS/<name>, made if "
+                   "missing")
+    p.add_argument("--preset", choices=sorted(PRESETS), help="instead of a scenario: `paper` runs the paper's Table 1 "
+                   "(x1: single, early, late; x2: single, late) and Table 2 with the paper-size configs "
+                   "(train/configs/paper/, for a GPU: docs/gpu_study.md) into OUT/paper_x1/ and OUT/paper_x2/")
+    p.add_argument("-o", "--output", required=True, help="output folder (created): table1/2.md and .csv, a run per "
+                   "model")
     p.add_argument("--models", default="late", help="Table 1 rows, comma-separated: late and any of single, early "
                    "(default: late; --preset sets them)")
     p.add_argument("--iterations", type=ITERATIONS, help="training batches per model (default: each config's)")
@@ -325,11 +318,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "configs', clip): clip holds out whole clips; frame holds out every k-th t-2..t window of every "
                    "clip, no training window sharing a frame with a val one (Table 2 needs clip)")
     p.add_argument("--datasets", default="datasets", help="folder of datasets by scenario name (default: datasets)")
-    p.add_argument(
-        "--configs",
-        default=str(CONFIGS),
-        help="folder with single/early/late.yaml (default: train/configs; --preset sets it)",
-    )
+    p.add_argument("--configs", default=str(CONFIGS), help="folder with single/early/late.yaml (default: "
+                   "train/configs; --preset sets it)")
     p.add_argument("--trackers", default=str(TRACKER_CONFIGS), help="folder of tracker configs, one per Table 2 row "
                    "(default: train/configs/tracking)")
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto", help="default: CUDA when present")
