@@ -31,7 +31,7 @@ from scan_patterns.shots import dirs_from_angles
 from scan_patterns.timebase import cycles
 
 REFERENCE = Path(__file__).resolve().parent / "reference"
-FITS = {"mid360": 4}  # table -> its lasers: the fits stored as reference/<table>_rotors.npz
+FITS = {"mid360": 4, "hap": 6}  # table -> its lasers: the fits stored as reference/<table>_rotors.npz
 
 
 @dataclass(frozen=True)
