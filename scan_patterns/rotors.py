@@ -1,17 +1,21 @@
-"""`rotors`: a scanner of two elements turning at fixed rates, its optics a fitted map (the Mid-360).
+"""`rotors`: a scanner of two elements turning at fixed rates, its optics a fitted map (Mid-360, HAP).
 
 Livox's Mid-360 table is, to its own rounding, a function of two angles that turn at fixed rates:
 theta1 = 2 pi f1 t (f1 = -182.4167 Hz, the azimuth's mean turn) and delta = 2 pi f2 t (f2 = 10 Hz).
 For each laser l, at its shot's time t:
 
     elevation = Re sum_{m=0..M} sum_{k=-K..K} E[l, m, k] exp(i (m theta1 + k delta))
-    azimuth   = theta1 + Re sum ... A[l, m, k] exp(i (m theta1 + k delta))
+    azimuth   = turns theta1 + Re sum ... A[l, m, k] exp(i (m theta1 + k delta))
+
+with turns = 1 where the azimuth goes round with theta1 (Mid-360) and 0 where it swings back and
+forth (HAP: theta1 at 128.36 Hz, delta at 10.26 Hz; a map of them only, its rows' timing unknown, so
+it misses HAP's table by about 1.7 deg rms, docs/scan_patterns.md).
 
 `scan_patterns.fit_rotors` fits f1, f2 and the coefficients to the whole table and stores them in
 scan_patterns/reference/<table>_rotors.npz. The turning is physical, so the model runs on past the
-table without a seam (theta1 and delta come back together every 12 s, not 4); the optics between the
-elements and the beam (which leaves 38-97 deg from the axis, more than wedge prisms bend it) are not
-modelled, only fitted: a map of (M + 1) (2 K + 1) terms per laser and angle.
+table without a seam (the Mid-360's theta1 and delta come back together every 12 s, not 4); the optics
+between the elements and the beam (the Mid-360's leaves 38-97 deg from the axis, more than wedge prisms
+bend it) are not modelled, only fitted: a map of (M + 1) (2 K + 1) terms per laser and angle.
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ from scan_patterns.shots import dirs_from_angles
 from scan_patterns.timebase import cycles
 
 REFERENCE = Path(__file__).resolve().parent / "reference"
-FITS = {"mid360": 4}  # table -> its lasers: the fits stored as reference/<table>_rotors.npz
+FITS = {"mid360": 4, "hap": 6}  # table -> its lasers: the fits stored as reference/<table>_rotors.npz
 
 
 @dataclass(frozen=True)
@@ -46,23 +50,25 @@ class RotorParams:
 @dataclass(frozen=True)
 class RotorFit:
     """Rates (Hz) of theta1 and delta, and per laser the complex coefficients (lasers, M + 1, 2 K + 1)
-    of elevation and of azimuth - theta1 (radians); k runs from -K to K."""
+    of elevation and of azimuth - turns theta1 (radians); k runs from -K to K; turns: 1 or 0."""
 
     rates_hz: tuple[float, float]
     elevation: NDArray[np.complex128]
     azimuth: NDArray[np.complex128]
+    turns: int
 
 
 @functools.cache
 def load(table: str) -> RotorFit:
     """The stored fit of `table` (reference/<table>_rotors.npz)."""
     with np.load(REFERENCE / f"{table}_rotors.npz") as data:
-        return RotorFit(tuple(float(r) for r in data["rates_hz"]), data["elevation"], data["azimuth"])
+        rates = tuple(float(r) for r in data["rates_hz"])
+        return RotorFit(rates, data["elevation"], data["azimuth"], int(data["turns"]))
 
 
 def angles(fit: RotorFit, t_s: NDArray[np.float64], line: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(azimuth, elevation), radians float64, of lasers `line` at times `t_s` (s): the sums of elevation and
-    azimuth - theta1 together in one compiled pass over the shots (`rotors_kernels.fourier_sums`), each pair
+    azimuth - turns theta1 together in one compiled pass over the shots (`rotors_kernels.fourier_sums`), each pair
     of terms +-k folded into a k delta cosine and a sine."""
     t_s, line = np.asarray(t_s, np.float64), np.ascontiguousarray(line, np.intp)
     theta1, delta = cycles(t_s, fit.rates_hz[0]), cycles(t_s, fit.rates_hz[1])
@@ -76,7 +82,7 @@ def angles(fit: RotorFit, t_s: NDArray[np.float64], line: NDArray) -> tuple[NDAr
     from scan_patterns import rotors_kernels  # numba, compiled on first use: importing the presets needs neither
 
     rotors_kernels.fourier_sums(theta1, delta, line, weights, orders, sums)
-    return theta1 + sums[:, 1], sums[:, 0]
+    return fit.turns * theta1 + sums[:, 1], sums[:, 0]
 
 
 def directions(params: RotorParams, t_s: NDArray[np.float64], line: NDArray) -> NDArray[np.float32]:

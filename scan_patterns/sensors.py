@@ -1,6 +1,6 @@
 """Sensor heads and sensors, and the registry of named presets that a scenario can extend.
 
-A head is one Livox unit: a pattern (`risley`, `rose` or `replay`) with its parameters, a shot
+A head is one Livox unit: a pattern (`risley`, `rose`, `replay` or `rotors`) with its parameters, a shot
 rate, its lasers (shot k fires laser (k - 1) mod lasers, Livox's `line`), a field of view (a
 circular cone, or a box in azimuth and elevation), its mounting on the sensor (yaw about z, left
 positive; then pitch, up positive) and its own clock (`time_offset_s`: the head's pattern time runs
@@ -269,6 +269,8 @@ for _spec in (
                "Tele-15: 6 lasers through Risley prisms fitted to Livox's table, never loops"),
     SensorSpec("tele15-replay", (OFFICIAL_HEADS["tele"],),
                "Livox's Tele-15 table: 6 lasers, 240,000 shots/s, 14.5 x 16.1 deg"),
+    SensorSpec("hap-rotors", (_fitted_head("hap", "rotors"),),
+               "HAP: 6 lasers, two rotors and a map fitted to Livox's table (1.7 deg rms off it), never loops"),
     SensorSpec("hap-replay", (OFFICIAL_HEADS["hap"],),
                "Livox's HAP table: 6 lasers, 452,000 shots/s, 120 x 25 deg, 2.32 s"),
     SensorSpec("mid360-rotors", (_fitted_head("mid360", "rotors"),),

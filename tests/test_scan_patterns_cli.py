@@ -68,5 +68,6 @@ def test_help_lists_the_presets():
     assert result.returncode == 0
     for preset in ("mid40-risley", "mid40-rose", "mid40-replay", "mid70-replay", "mid100-risley", "mid100-rose",
                    "avia-replay", "horizon-replay", "tele15-replay", "hap-replay", "mid360-replay",
-                   "avia-risley", "tele15-risley", "horizon-risley", "mid70-risley", "mid360-rotors"):
+                   "avia-risley", "tele15-risley", "horizon-risley", "mid70-risley", "mid360-rotors",
+                   "hap-rotors"):
         assert preset in result.stdout

@@ -25,6 +25,7 @@ PRESETS = [
     "horizon-risley",
     "mid70-risley",
     "mid360-rotors",
+    "hap-rotors",
 ]
 
 
@@ -103,7 +104,7 @@ def test_risley_parameters_override_the_fitted_ones():
         ({"pattern": "risley", "lasers": 6}, "risley: the optics have 1 lasers, the head 6"),
         ({"pattern": "risley", "params": {"lasers_deg": [[0, 40]]}}, "lasers_deg holds 1 to 255"),
         ({"pattern": "risley", "params": {"rpm": [1000]}}, "risley: rpm has 1 values for 2 prisms"),
-        ({"like": "mid360-rotors", "params": {"fit": "hap"}}, "rotors: no fit of table 'hap'; fitted: mid360"),
+        ({"like": "mid360-rotors", "params": {"fit": "avia"}}, "rotors: no fit of table 'avia'; fitted: mid360, hap"),
         ({"like": "mid360-rotors", "lasers": 6}, "rotors: the optics have 4 lasers, the head 6"),
         ({"yaw_deg": 3}, "needs 'pattern'"),
         ({"like": "mid40-rose", "colour": "red"}, "unknown key 'colour'"),
