@@ -122,7 +122,7 @@ def _capture_and_render(frames: int):
     """Seconds to capture the motion of `frames` frames, and to render them (labels included), the
     minor page faults of rendering, and the motion."""
     from simgen.motion.engine import capture_motion
-    from simgen.pipeline.clip import engine_seed, render_frames
+    from simgen.pipeline.clip import engine_seed, label_sizes, render_frames
     from simgen.scenario import load_scenario, parse_scenario
 
     data = load_scenario(SCENARIO).model_dump()
@@ -133,7 +133,7 @@ def _capture_and_render(frames: int):
     clip = capture_motion(scenario.motion, engine_seed(scenario, 0))
     capture_s = time.perf_counter() - started
     started, faults = time.perf_counter(), resource.getrusage(resource.RUSAGE_SELF).ru_minflt
-    for _ in render_frames(scenario, clip, 0, 0, frames):
+    for _ in render_frames(scenario, clip, 0, 0, frames, label_sizes(scenario, clip)):
         pass
     return capture_s, time.perf_counter() - started, resource.getrusage(resource.RUSAGE_SELF).ru_minflt - faults, clip
 

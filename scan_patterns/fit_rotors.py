@@ -179,10 +179,11 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     pattern = load_pattern_file(args.table)
     lasers = pattern.lasers or 1
+    table_azimuth, table_elevation = angles_from_dirs(pattern.dirs)
     if args.lines == "rows":
         line = np.arange(len(pattern.t_s)) % lasers
     else:
-        line = elevation_lines(angles_from_dirs(pattern.dirs)[1], lasers)
+        line = elevation_lines(table_elevation, lasers)
     result = fit(pattern.t_s, pattern.dirs, line, tuple(args.orders), args.retime)
     azimuth, elevation = rotors.angles(result, pattern.t_s, line)
     error = angle_between_deg(dirs_from_angles(azimuth, elevation), pattern.dirs)
@@ -194,7 +195,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.retime:
         times = pattern.t_s
         for _ in range(args.retime):
-            times = _retimed(result, times, *angles_from_dirs(pattern.dirs), line)
+            times = _retimed(result, times, table_azimuth, table_elevation, line)
         azimuth, elevation = rotors.angles(result, times, line)
         error = angle_between_deg(dirs_from_angles(azimuth, elevation), pattern.dirs)
         shift_us = (times - pattern.t_s) * 1e6

@@ -158,12 +158,15 @@ def test_track_sizes_hold_still_over_the_clip(motion_clip):
     """labels.size: track, through the pipeline on the captured clip: every humanoid's length, width and
     height are the same in every frame (the medians of its enclosing boxes over the clip), its centre on
     the pitch plane and its bottom are the enclosing box's."""
-    from simgen.pipeline.clip import render_frames
+    from simgen.pipeline.clip import label_sizes, render_frames
     from simgen.scenario import parse_scenario
 
+    def frames(scenario):
+        return list(render_frames(scenario, motion_clip, 0, 0, 6, label_sizes(scenario, motion_clip)))
+
     scenario = {"name": "sizes", "scan": {"frame_rate_hz": 10, "frames": 6}, "sensors": [{"preset": "mid40-rose"}]}
-    enclosing = list(render_frames(parse_scenario(scenario), motion_clip, 0, 0, 6))
-    track = list(render_frames(parse_scenario({**scenario, "labels": {"size": "track"}}), motion_clip, 0, 0, 6))
+    enclosing = frames(parse_scenario(scenario))
+    track = frames(parse_scenario({**scenario, "labels": {"size": "track"}}))
     sizes = np.stack([f.labels.boxes[:, 3:6] for f in track])
     assert (
         np.all(sizes == sizes[0]) and np.ptp(np.stack([f.labels.boxes[:, 3] for f in enclosing]), axis=0).max() > 0.05

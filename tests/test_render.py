@@ -203,7 +203,7 @@ def test_captured_clip_points_fall_with_range_and_shots_add_up(motion_clip):
 def test_points_carry_the_sweep_of_their_shot(motion_clip):
     """Two 20 Hz sweeps merged into a 10 Hz frame: the first 50 ms of shots are sweep 0, the rest
     sweep 1, and a shard of the clip renders the same frames bit for bit."""
-    from simgen.pipeline.clip import render_clip, render_frames
+    from simgen.pipeline.clip import label_sizes, render_clip, render_frames
     from simgen.scenario import parse_scenario
 
     scenario = parse_scenario({"name": "t", "scan": {"frames": 4, "sweeps_per_frame": 2}})
@@ -216,7 +216,7 @@ def test_points_carry_the_sweep_of_their_shot(motion_clip):
         )
     single = parse_scenario({"name": "t", "scan": {"frames": 4}})
     assert all((f.scan.sweep == 0).all() for f in render_clip(single, motion_clip, 0))
-    shards = list(render_frames(scenario, motion_clip, 0, 2, 4))
+    shards = list(render_frames(scenario, motion_clip, 0, 2, 4, label_sizes(scenario, motion_clip)))
     assert len(frames) == 4 and len(shards) == 2
     for whole, shard in zip(frames[2:], shards, strict=True):
         assert shard.index == whole.index

@@ -53,21 +53,20 @@ def frame_count(scenario: Scenario, clip: MotionClip) -> int:
 
 def render_clip(scenario: Scenario, clip: MotionClip, clip_index: int) -> Iterator[LabelledFrame]:
     """Yield the clip's labelled frames in order."""
-    return render_frames(scenario, clip, clip_index, 0, frame_count(scenario, clip))
+    return render_frames(scenario, clip, clip_index, 0, frame_count(scenario, clip), label_sizes(scenario, clip))
 
 
 def render_frames(
-    scenario: Scenario, clip: MotionClip, clip_index: int, first: int, stop: int
+    scenario: Scenario, clip: MotionClip, clip_index: int, first: int, stop: int, sizes: NDArray | None
 ) -> Iterator[LabelledFrame]:
     """Yield frames `first` .. `stop - 1` of the clip, in order: the same frames, bit for bit, as
-    `render_clip` yields there (a shard of a clip). Labels are computed `LABEL_CHUNK_FRAMES` at a
-    time on chunks aligned to the clip's frame 0 whatever `first` is."""
+    `render_clip` yields there (a shard of a clip), `sizes` being the clip's `label_sizes`. Labels are
+    computed `LABEL_CHUNK_FRAMES` at a time on chunks aligned to the clip's frame 0 whatever `first` is."""
     scene = scenario.scene
     world = World(clip, build_static_scene(scene.goals, scene.surroundings, scene.net_transmission))
     rate = scenario.scan.frame_rate_hz
     start = float(clip.time_s[0])
     sensors = scenario_sensors(scenario)
-    sizes = label_sizes(scenario, clip)
     for index in range(first, stop):
         j = index % LABEL_CHUNK_FRAMES
         if j == 0 or index == first:  # labels of the chunk's frames at once (none past `stop`: no motion there)
@@ -108,7 +107,8 @@ def chunk_labels(
     return label_times, keypoints, velocity, boxes, discontinuity
 
 
-def frame_boxes(scenario: Scenario, clip: MotionClip, index: int) -> NDArray[np.float32]:
-    """Frame `index`'s label boxes (H, 7), as `render_frames` labels them, without rendering its scan."""
-    boxes = chunk_labels(scenario, clip, label_sizes(scenario, clip), index, index + 1)[3]
+def frame_boxes(scenario: Scenario, clip: MotionClip, sizes: NDArray | None, index: int) -> NDArray[np.float32]:
+    """Frame `index`'s label boxes (H, 7), as `render_frames` labels them with the same `sizes`, without
+    rendering its scan."""
+    boxes = chunk_labels(scenario, clip, sizes, index, index + 1)[3]
     return np.asarray(boxes[index % LABEL_CHUNK_FRAMES], np.float32)

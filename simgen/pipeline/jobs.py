@@ -99,7 +99,7 @@ def run_shard(job: Job, progress: Progress) -> dict:
     (the clip's own when the shard is the whole clip)."""
     from simgen.datasets.write import ClipWriter
     from simgen.motion.clip_io import read_clip_arrays
-    from simgen.pipeline.clip import clip_name, frame_boxes, render_frames
+    from simgen.pipeline.clip import clip_name, frame_boxes, label_sizes, render_frames
     from simgen.scan.sensor import scenario_sensors
 
     scenario = Scenario.model_validate(job.scenario)
@@ -118,9 +118,10 @@ def run_shard(job: Job, progress: Progress) -> dict:
     with ClipWriter(
         target, target_format, clip_name(job.clip_index), job.clip_index, scenario_sensors(scenario), first
     ) as writer:
+        sizes = label_sizes(scenario, clip)  # over the whole clip: once per shard, for the seam and the frames
         if in_place and first > 0:  # the seam's frame pair, which no shard written in place would count
-            writer.after(clip.track_id, frame_boxes(scenario, clip, first - 1))
-        for frame in render_frames(scenario, clip, job.clip_index, first, stop):
+            writer.after(clip.track_id, frame_boxes(scenario, clip, sizes, first - 1))
+        for frame in render_frames(scenario, clip, job.clip_index, first, stop, sizes):
             writer.add(frame)
             progress("frame", job.clip_index, 1)
         record = writer.close().to_dict()
