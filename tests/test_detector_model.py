@@ -252,3 +252,27 @@ def test_the_sparse_first_convolution_equals_the_dense_one(stride, kernel):
     grads = [torch.autograd.grad((out * weights).sum(), (features, conv.weight, conv.bias)) for out in (dense, sparse)]
     for got, want in zip(grads[1], grads[0]):
         torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-4)
+
+
+@pytest.mark.parametrize("fusion", ["single", "late"])
+def test_channels_last_step_computes_what_the_default_layout_does(fusion):
+    """train.channels_last (the GPU's fast layout; forced on here on CPU): the same scores, loss and gradients."""
+    from train.accelerate import accelerate
+
+    config = tiny_config(fusion)
+    plain, fast = build_detector(config), build_detector(config)
+    step = accelerate(fast, config.train.model_copy(update={"channels_last": "on"}), torch.device("cpu"))
+    assert fast.backbone_2d.blocks[1][0].weight.is_contiguous(memory_format=torch.channels_last)
+    batch = _batch(config, plain)
+    outputs = []
+    for model in (plain, step):
+        out = model(batch)
+        detection_loss(out.float(), batch.targets, config.loss).total.backward()
+        outputs.append(out.scores)
+    grads = [[p.grad for p in m.parameters()] for m in (plain, fast)]
+    torch.testing.assert_close(outputs[1], outputs[0], rtol=1e-4, atol=1e-5)
+    for fast_grad, plain_grad in zip(grads[1], grads[0]):  # to float32 summation order, against each tensor's scale
+        torch.testing.assert_close(fast_grad, plain_grad, rtol=1e-3, atol=5e-3 * float(plain_grad.abs().max()))
+    default = build_detector(config)
+    assert accelerate(default, config.train, torch.device("cpu")) is default  # auto: CUDA only
+    assert default.backbone_2d.blocks[1][0].weight.is_contiguous()

@@ -235,6 +235,10 @@ class TrainConfig(Strict):
     # learning curve: AP on the val clips every this many iterations (0: none)
     eval_every: int = Field(0, ge=0, le=MAX_ITERATIONS)
     bf16: Literal["auto", "on", "off"] = "auto"  # bfloat16 autocast; auto: on CUDA only
+    # a step's speed on a GPU (train.accelerate); auto: on CUDA only
+    cudnn_benchmark: Literal["auto", "on", "off"] = "auto"
+    channels_last: Literal["auto", "on", "off"] = "auto"
+    compile: Literal["auto", "on", "off"] = "off"
 
 
 class InferConfig(Strict):

@@ -16,6 +16,7 @@ from pathlib import Path
 import torch
 from tqdm import tqdm
 
+from train.accelerate import accelerate
 from train.checkpoint import Checkpoint, save_checkpoint
 from train.config import DetectorConfig
 from train.data import SampleSet, loader
@@ -92,6 +93,7 @@ def fit(config: DetectorConfig, dataset: str, out: Path, device: torch.device, p
     """
     train = config.train
     model = build_detector(config).to(device).train()
+    step_model = accelerate(model, train, device)
     assigner = model.head.assigner
     optimizer = torch.optim.AdamW(model.parameters(), lr=train.lr, betas=(0.95, 0.99), weight_decay=train.weight_decay)
     first = _resumed(out, config, model, optimizer) if resume else 0
@@ -126,7 +128,7 @@ def fit(config: DetectorConfig, dataset: str, out: Path, device: torch.device, p
                 group["lr"] = lr
             batch = batch.to(device, non_blocking=cuda)
             with autocast(device, train.bf16):
-                output = model(batch)
+                output = step_model(batch)
             terms = detection_loss(output.float(), batch.targets, config.loss)
             optimizer.zero_grad(set_to_none=True)
             terms.total.backward()

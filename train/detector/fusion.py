@@ -5,7 +5,8 @@ Late fusion: per backbone level, the three frames' features (C, 3, H, W) go thro
 Conv3d with no temporal padding (3 frames -> 1), BatchNorm and ReLU; the levels are then
 concatenated to (3C, H, W). A 3x3x3 kernel that spans all three frames is a 3x3 Conv2d over the
 frames' channels side by side (3C -> C): computed so, with the Conv3d's weights, on a view of the
-frames (no copy), it takes about half the CPU time of torch's Conv3d. The val pass
+frames (no copy; one copy in channels-last memory, train.accelerate), it takes about half the CPU
+time of torch's Conv3d, and its output (depth 1) is normalised as a 2D map. The val pass
 (train.detector.streaming) splits it further: each frame convolved once with each temporal tap, the
 window's sum taken from the three frames' terms.
 """
@@ -45,7 +46,7 @@ class LateFusion(nn.Module):
         self.levels = nn.ModuleList(
             nn.Sequential(
                 nn.Conv3d(c, c, (frames, 3, 3), padding=(0, 1, 1), bias=False),
-                nn.BatchNorm3d(c, eps=1e-3, momentum=0.1),
+                nn.BatchNorm2d(c, eps=1e-3, momentum=0.1),  # the output has depth 1
                 nn.ReLU(),
             )
             for c in channels
@@ -54,11 +55,10 @@ class LateFusion(nn.Module):
     def forward(self, levels: list[torch.Tensor], batch_size: int) -> torch.Tensor:
         fused = []
         for features, (conv, norm, relu) in zip(levels, self.levels):
-            _, c, h, w = features.shape
-            side_by_side = features.reshape(batch_size, self.frames * c, h, w)  # channel frame * C + c
-            weight = conv.weight.transpose(1, 2).reshape(conv.out_channels, self.frames * c, *conv.kernel_size[1:])
+            side_by_side = _side_by_side(features, batch_size, self.frames)
+            weight = conv.weight.transpose(1, 2).reshape(conv.out_channels, -1, *conv.kernel_size[1:])
             out = F.conv2d(side_by_side, weight, conv.bias, padding=conv.padding[1:])
-            fused.append(relu(norm(out.unsqueeze(2))).squeeze(2))
+            fused.append(relu(norm(out)))
         return torch.cat(fused, dim=1)
 
     def frame_terms(self, levels: list[torch.Tensor]) -> list[torch.Tensor]:
@@ -80,8 +80,19 @@ class LateFusion(nn.Module):
             out = sum(frame[level][k * c:(k + 1) * c] for k, frame in enumerate(terms))[None]
             if conv.bias is not None:
                 out = out + conv.bias[:, None, None]
-            fused.append(relu(norm(out.unsqueeze(2))).squeeze(2))
+            fused.append(relu(norm(out)))
         return torch.cat(fused, dim=1)
+
+
+def _side_by_side(features: torch.Tensor, batch_size: int, frames: int) -> torch.Tensor:
+    """(B * frames, C, H, W), frames oldest first per sample -> (B, frames * C, H, W), channel frame * C + c;
+    in the memory format `features` has (a view where it is contiguous, a copy where channels-last)."""
+    _, c, h, w = features.shape
+    if features.is_contiguous():
+        return features.view(batch_size, frames * c, h, w)
+    # channels-last: (B, frames, C, H, W) to memory (B, H, W, frames, C)
+    per_cell = features.view(batch_size, frames, c, h, w).permute(0, 3, 4, 1, 2).contiguous()
+    return per_cell.view(batch_size, h, w, frames * c).permute(0, 3, 1, 2)
 
 
 @FUSIONS.register("none", "early")

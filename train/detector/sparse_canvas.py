@@ -28,16 +28,18 @@ class SparseCanvas:
     rows: int
     cols: int
 
-    def dense(self) -> torch.Tensor:
-        """(canvases, C, rows, columns): the pillars scattered into zeros."""
+    def dense(self, memory_format: torch.memory_format = torch.contiguous_format) -> torch.Tensor:
+        """(canvases, C, rows, columns): the pillars scattered into zeros, in `memory_format`."""
         cells = self.rows * self.cols
         canvas = self.features.new_zeros(self.canvases * cells, self.features.shape[1])
         canvas = canvas.index_copy(0, self.index, self.features)
-        return canvas.view(self.canvases, self.rows, self.cols, -1).permute(0, 3, 1, 2).contiguous()
+        return canvas.view(self.canvases, self.rows, self.cols, -1).permute(0, 3, 1, 2).contiguous(
+            memory_format=memory_format)
 
 
 def sparse_conv2d(canvas: SparseCanvas, conv: nn.Conv2d) -> torch.Tensor:
-    """`conv(canvas.dense())` (any kernel, stride, zero padding; no groups or dilation) from the pillars alone."""
+    """`conv(canvas.dense())` (any kernel, stride, zero padding; no groups or dilation) from the pillars alone,
+    channels-last where the convolution's weights are (train.accelerate)."""
     if conv.groups != 1 or conv.dilation != (1, 1) or conv.padding_mode != "zeros" or isinstance(conv.padding, str):
         raise ValueError("sparse_conv2d takes plain zero-padded convolutions")
     (kernel_r, kernel_c), (stride_r, stride_c), (pad_r, pad_c) = conv.kernel_size, conv.stride, conv.padding
@@ -62,4 +64,12 @@ def sparse_conv2d(canvas: SparseCanvas, conv: nn.Conv2d) -> torch.Tensor:
     out = out.view(canvas.canvases, out_rows, out_cols, conv.out_channels).permute(0, 3, 1, 2)
     if conv.bias is not None:
         out = out + conv.bias[:, None, None]
-    return out.contiguous()
+    return out.contiguous(memory_format=weight_memory_format(conv))
+
+
+def weight_memory_format(conv: nn.Module) -> torch.memory_format:
+    """The memory format a convolution's 4D weights are in: channels-last or the default."""
+    weight = conv.weight
+    if weight.dim() == 4 and not weight.is_contiguous() and weight.is_contiguous(memory_format=torch.channels_last):
+        return torch.channels_last
+    return torch.contiguous_format
