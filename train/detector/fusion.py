@@ -1,4 +1,4 @@
-"""How the frames' features meet (`model.fusion.name`): none (one frame), early (sweeps merged before the
+"""How the frames' features meet (`model.fusion.name`): single (one frame), early (sweeps merged before the
 pillars), or late (the paper's module).
 
 Late fusion: per backbone level, the three frames' features (C, 3, H, W) go through a 3x3x3
@@ -16,7 +16,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from train.config import EarlyFusionConfig, LateFusionConfig, NoFusionConfig
+from train.config import EarlyFusionConfig, LateFusionConfig, SingleFrameConfig
 from train.detector.registry import FUSIONS
 
 
@@ -84,8 +84,8 @@ class LateFusion(nn.Module):
         return torch.cat(fused, dim=1)
 
 
-@FUSIONS.register("none", "early")
-def _concat(section: NoFusionConfig | EarlyFusionConfig, channels: tuple[int, ...]) -> ConcatLevels:
+@FUSIONS.register("single", "early")
+def _concat(section: SingleFrameConfig | EarlyFusionConfig, channels: tuple[int, ...]) -> ConcatLevels:
     return ConcatLevels()
 
 
