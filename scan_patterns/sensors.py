@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -182,6 +182,15 @@ def get_sensor(name: str) -> SensorSpec:
 
 def sensor_names() -> list[str]:
     return sorted(_REGISTRY)
+
+
+def find_sensor(name: str, custom: Sequence[Mapping[str, Any]] = ()) -> SensorSpec:
+    """A sensor by name: the one of `custom` (`make_sensor` mappings, e.g. a scenario's custom_sensors) of that
+    name, else the registered one (UnknownSensorError if neither)."""
+    for spec in custom:
+        if spec.get("name") == name:
+            return make_sensor(spec)
+    return get_sensor(name)
 
 
 _HEAD_KEYS = {f.name for f in dataclasses.fields(HeadSpec)}

@@ -342,8 +342,20 @@ class Scenario(Strict):
 
     def sensor_specs(self) -> list[scan_patterns.SensorSpec]:
         """The scan-pattern sensor of each entry of `sensors`: a custom one, else a registered preset."""
-        custom = {sensor.name: sensor.spec() for sensor in self.custom_sensors}
-        return [custom[s.preset] if s.preset in custom else scan_patterns.get_sensor(s.preset) for s in self.sensors]
+        custom = [sensor.model_dump() for sensor in self.custom_sensors]
+        return [scan_patterns.find_sensor(sensor.preset, custom) for sensor in self.sensors]
+
+    def sensor_shots_per_s(self) -> list[float]:
+        """Shots per second each entry of `sensors` fires: its preset's, times scan.density."""
+        return [spec.shots_per_s * self.scan.density for spec in self.sensor_specs()]
+
+    def shots_per_s(self) -> float:
+        """Shots per second of all sensors together, density included."""
+        return sum(self.sensor_shots_per_s())
+
+    def shots_per_frame(self) -> float:
+        """Shots of all sensors in one frame (scan.frame_rate_hz), density included: the most points a frame holds."""
+        return self.shots_per_s() / self.scan.frame_rate_hz
 
     def frames_per_clip(self) -> int:
         """Frames of each clip: `scan.frames`, else as many as the captured motion covers."""
@@ -385,7 +397,7 @@ class Scenario(Strict):
 
     @model_validator(mode="after")
     def _shot_budget(self) -> Scenario:
-        shots_per_s = self.scan.density * sum(spec.shots_per_s for spec in self.sensor_specs())
+        shots_per_s = self.shots_per_s()
         if shots_per_s > MAX_SHOTS_PER_S:
             raise ValueError(
                 f"shot budget: {len(self.sensors)} sensors at scan.density {self.scan.density:g} fire "
@@ -393,7 +405,7 @@ class Scenario(Strict):
                 f"more than {MAX_SHOTS_PER_S:,} (lower scan.density, the number of sensors or custom heads' "
                 f"shots_per_s)"
             )
-        shots_per_frame = shots_per_s / self.scan.frame_rate_hz
+        shots_per_frame = self.shots_per_frame()
         frame_bytes = shots_per_frame * (BYTES_PER_SHOT + self.noise.subrays * BYTES_PER_RAY)
         if frame_bytes > MAX_FRAME_BYTES:
             raise ValueError(

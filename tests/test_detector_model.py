@@ -7,7 +7,8 @@ import yaml
 
 from simgen.errors import UserError
 from tests.support.detector import tiny_config
-from train.checkpoint import Checkpoint, load_checkpoint, save_checkpoint
+from train import cli as train_cli
+from train.checkpoint import FORMAT, VERSION, Checkpoint, load_checkpoint, save_checkpoint
 from train.config import load_config, parse_config
 from train.data import Encoded, Sample, collate, encode_sample
 from train.detector.fusion import LateFusion
@@ -97,16 +98,16 @@ def test_nms_decided_by_bounds_equals_greedy_on_every_exact_iou(threshold):
 
 
 def test_configs_load_and_reject_bad_keys(tmp_path):
-    for name, fusion in (("single", "none"), ("early", "early"), ("late", "late")):
+    for name in ("single", "early", "late"):
         config = load_config(f"train/configs/{name}.yaml")
-        assert config.model.fusion.name == fusion and config.model.method == name
+        assert config.model.fusion.name == config.model.method == name
     raw = yaml.safe_load(open("train/configs/late.yaml"))
     raw["model"]["backbone_2d"]["colour"] = 3
     with pytest.raises(UserError, match=r"unknown key 'model.backbone_2d.colour'"):
         parse_config(raw)
     raw = yaml.safe_load(open("train/configs/late.yaml"))
     raw["model"]["fusion"]["name"] = "middle"
-    with pytest.raises(UserError, match=r"'model.fusion': .*'none', 'early', 'late'"):
+    with pytest.raises(UserError, match=r"'model.fusion': .*'single', 'early', 'late'"):
         parse_config(raw)
     raw = yaml.safe_load(open("train/configs/single.yaml"))
     raw["model"]["head"]["tracklet_boxes"] = 3
@@ -136,6 +137,34 @@ def test_checkpoint_round_trip_and_foreign_files(tmp_path):
         assert "\n" not in str(error.value)
 
 
+def test_an_old_config_or_checkpoint_with_fusion_none_still_loads_as_single(tmp_path, capsys):
+    """`fusion: none`, the name before `single`: read as single with a one-line warning naming the file."""
+    old = yaml.safe_load(open("train/configs/single.yaml"))
+    old["model"]["fusion"]["name"] = "none"
+    config_path = tmp_path / "old.yaml"
+    config_path.write_text(yaml.safe_dump(old))
+    with pytest.warns(FutureWarning, match=r"old.yaml: 'model.fusion.name: none' is deprecated, read as single"):
+        assert load_config(config_path) == load_config("train/configs/single.yaml")
+
+    config = tiny_config("single")
+    model = build_detector(config)
+    payload = {"format": FORMAT, "version": VERSION, "config": config.model_dump(mode="json"),
+               "model": model.state_dict(), "optimizer": None, "iteration": 3}
+    payload["config"]["model"]["fusion"]["name"] = "none"  # as simgen-train wrote it before the rename
+    torch.save(payload, tmp_path / "old.pt")
+    with pytest.warns(FutureWarning, match=r"old.pt \(config\): 'model.fusion.name: none' is deprecated"):
+        loaded = load_checkpoint(tmp_path / "old.pt")
+    assert loaded.config == config and loaded.iteration == 3
+    build_detector(loaded.config).load_state_dict(loaded.model)  # the same weights fit
+
+    # the CLI: the warning is one line, then the command goes on (here to its missing dataset)
+    assert train_cli.main(["fit", str(config_path), "--dataset", str(tmp_path / "missing"),
+                           "-o", str(tmp_path / "out")]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 2 and lines[0].startswith("simgen-train: warning: ") and "read as single" in lines[0]
+    assert lines[1].startswith("simgen-train fit: error: ")
+
+
 def test_every_part_name_a_config_allows_has_a_builder():
     from typing import get_args
 
@@ -150,7 +179,7 @@ def test_every_part_name_a_config_allows_has_a_builder():
             "discriminator"
         ]["mapping"]
     )
-    assert fusions == set(FUSIONS.builders) == {"none", "early", "late"}
+    assert fusions == set(FUSIONS.builders) == {"single", "early", "late"}
     assert names(PillarEncoderConfig) == set(PILLAR_ENCODERS.builders)
     assert names(Backbone2dConfig) == set(BACKBONES_2D.builders)
     assert names(DenseHeadConfig) == set(HEADS.builders)
@@ -185,10 +214,10 @@ def test_bf16_autocast_path_runs_on_cpu(fusion):
 
 
 def test_paper_configs_have_the_papers_sizes_and_train_at_tiny_range():
-    for name, fusion in (("single", "none"), ("early", "early"), ("late", "late")):
+    for name in ("single", "early", "late"):
         config = load_config(f"train/configs/paper/{name}.yaml")
         model, backbone = config.model, config.model.backbone_2d
-        assert model.fusion.name == fusion and model.pillar_encoder.channels == 64
+        assert model.fusion.name == name and model.pillar_encoder.channels == 64
         assert backbone.channels == (64, 128, 256) and backbone.strides[0] == 1 and backbone.output_stride == 1
         assert config.data.pillar_size_m * backbone.output_stride == 0.25 and len(model.head.anchor.yaws_rad) == 2
         assert config.train.bf16 == "auto" and config.train.workers > 1

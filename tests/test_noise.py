@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from simgen.render.frame import render_frame
-from simgen.render.noise import max_range_m, noisy_returns
+from simgen.render.noise import ReturnModel, max_range_m, noisy_returns
 from simgen.render.world import World
 from simgen.scan.rays import Rays
 from simgen.scenario import NoiseConfig
@@ -77,21 +77,11 @@ def test_datasheet_ranges_and_grazing_grass_out_of_range():
     # Grass (0.35) seen at a grazing angle: beyond its reduced range, the shot is missed.
     origin, t = np.array([[0.0, 0.0, 1.0]]), 100.0
     direction = np.array([[np.sqrt(1 - 0.01**2), 0.0, -0.01]])
-    args = (
-        origin,
-        direction,
-        np.array([t]),
-        np.array([0.35]),
-        np.array([0.01]),
-        1,
-        1.0,
-        90.0,
-        0.0,
-        0.0,
-        0.0,
-        np.random.default_rng(0),
+    model = ReturnModel(subrays=1, min_range_m=1.0, max_range_at_10pct_m=90.0, dropout=0.0, range_sigma_m=0.0,
+                        angle_sigma_rad=0.0)
+    hits, _, _, missed, dropped = noisy_returns(
+        origin, direction, np.array([t]), np.array([0.35]), np.array([0.01]), model, np.random.default_rng(0)
     )
-    hits, _, _, missed, dropped = noisy_returns(*args)
     assert (len(hits), missed, dropped) == (0, 1, 0)
 
 

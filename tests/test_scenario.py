@@ -94,6 +94,28 @@ def test_custom_sensor_from_the_scenario():
     assert mid40.name == "mid40-risley"
 
 
+def test_the_shots_a_scenario_fires_have_one_home():
+    """Shots per second and per frame, density included: what the scan's sensors fire (scenario_sensors) and
+    what the detector's memory check expects of a frame (train.preflight)."""
+    from simgen.scan.sensor import scenario_sensors
+    from train.preflight import scenario_points_per_frame
+
+    scenario = parse_scenario(
+        {
+            "name": "x",
+            "custom_sensors": [{"name": "wide", "heads": [{"like": "mid40-rose", "shots_per_s": 50000}]}],
+            "sensors": [{"preset": "wide"}, {"preset": "mid100-risley", "name": "second"}],
+            "scan": {"density": 3.0, "frame_rate_hz": 20.0},
+        }
+    )
+    assert scenario.sensor_shots_per_s() == [150_000.0, 3 * 300_000.0]
+    assert scenario.shots_per_s() == sum(s.shots_per_s for s in scenario_sensors(scenario)) == 1_050_000.0
+    assert scenario.shots_per_frame() == 52_500.0 == scenario_points_per_frame(scenario)
+    over = {"name": "x", "sensors": [{"preset": "mid100-risley"}] * 16, "scan": {"density": 5.0}}
+    with pytest.raises(UserError, match="fire 24,000,000 shots/s"):
+        parse_scenario(over)
+
+
 def test_custom_heads_from_the_fitted_models():
     """The Tele-15's replay head drawn by its fitted optics, an Avia turned 30 deg, a Mid-360 pitched up."""
     scenario = parse_scenario(

@@ -334,7 +334,7 @@ def _detector_case(draw) -> tuple[str, dict | bytes]:
         data["loss"]["loc_weights"] = [1.0] * draw(st.integers(1, 2))
         return kind, data
     if kind == "single-frame tracklet":
-        data["model"]["fusion"]["name"], data["model"]["head"]["tracklet_boxes"] = "none", 3
+        data["model"]["fusion"]["name"], data["model"]["head"]["tracklet_boxes"] = "single", 3
         return kind, data
     if kind == "memory: batch":  # the paper's late model: about 5 GiB a sample
         data = load_config(ROOT / "train" / "configs" / "paper" / "late.yaml").model_dump(mode="json")

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
+import warnings
 from pathlib import Path
 
 import torch
@@ -328,8 +329,16 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _warning_line(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning as one line on stderr, as errors are (e.g. an old config's `fusion: none`)."""
+    print(f"simgen-train: warning: {' '.join(str(message).splitlines())}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
-    return dispatch("simgen-train", build_parser().parse_args(argv))
+    args = build_parser().parse_args(argv)
+    with warnings.catch_warnings():
+        warnings.showwarning = _warning_line
+        return dispatch("simgen-train", args)
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ is beside it; docs/reliability.md lists them.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Annotated, ClassVar, Literal
 
@@ -134,10 +135,10 @@ class Backbone2dConfig(Strict):
         return self
 
 
-class NoFusionConfig(Strict):
+class SingleFrameConfig(Strict):
     """Frame t alone (the paper's single-frame baseline)."""
 
-    name: Literal["none"]
+    name: Literal["single"]
     input_frames: ClassVar[int] = 1  # point clouds read per sample
     canvases: ClassVar[int] = 1  # pseudo-images per sample
     time_channel: ClassVar[bool] = False  # points carry their frame offset (-2, -1, 0)
@@ -161,8 +162,8 @@ class LateFusionConfig(Strict):
     time_channel: ClassVar[bool] = False
 
 
-FusionConfig = Annotated[NoFusionConfig | EarlyFusionConfig | LateFusionConfig, Field(discriminator="name")]
-METHODS = {"none": "single", "early": "early", "late": "late"}  # fusion name -> the paper's Table 1 method
+FusionConfig = Annotated[SingleFrameConfig | EarlyFusionConfig | LateFusionConfig, Field(discriminator="name")]
+OLD_FUSION_NAMES = {"none": "single"}  # read with a FutureWarning: configs and checkpoints written before the rename
 
 
 Size = Annotated[float, Field(gt=0.0, le=20.0)]  # no object on a pitch is 20 m across (a goal: 7.3 m)
@@ -201,8 +202,8 @@ class ModelConfig(Strict):
 
     @property
     def method(self) -> str:
-        """The paper's name of this model: single, early or late."""
-        return METHODS[self.fusion.name]
+        """The paper's name of this model (its fusion's): single, early or late."""
+        return self.fusion.name
 
     @model_validator(mode="after")
     def _boxes(self) -> ModelConfig:
@@ -330,9 +331,23 @@ def same_weights(a: DetectorConfig, b: DetectorConfig) -> bool:
     return weight_fields(a) == weight_fields(b)
 
 
+def _renamed(data: object, source: str) -> object:
+    """`data` with an old `model.fusion.name` (OLD_FUSION_NAMES) replaced by its name now, with a one-line
+    FutureWarning naming `source`; anything else as given."""
+    fusion = data.get("model") if isinstance(data, dict) else None
+    fusion = fusion.get("fusion") if isinstance(fusion, dict) else None
+    old = fusion.get("name") if isinstance(fusion, dict) else None
+    if not isinstance(old, str) or old not in OLD_FUSION_NAMES:
+        return data
+    new = OLD_FUSION_NAMES[old]
+    warnings.warn(f"{source}: 'model.fusion.name: {old}' is deprecated, read as {new} (write {new})",
+                  FutureWarning, stacklevel=3)
+    return {**data, "model": {**data["model"], "fusion": {**fusion, "name": new}}}
+
+
 def parse_config(data: object, source: str = "config") -> DetectorConfig:
     """Validate a parsed config; raise `UserError` naming the first bad field."""
-    return validate(DetectorConfig, data, source)
+    return validate(DetectorConfig, _renamed(data, source), source)
 
 
 def load_config(path: str | Path) -> DetectorConfig:

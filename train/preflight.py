@@ -1,9 +1,10 @@
 """What a detector run asks of the machine, checked from its config before anything is allocated.
 
 Memory: an upper bound on the bytes that training (or inference) of a config needs, counted from
-the config alone: the parameters with their gradients and AdamW's two moments, the anchors, every
-feature map of a sample that the forward pass keeps for the backward one (a conv's, its
-BatchNorm's and its ReLU's output, at each layer), the points' decorations and features, the
+the config and its model built on the meta device (shapes without memory: `meta_detector`): the
+parameters with their gradients and AdamW's two moments, the anchors, every feature map of a sample
+that the forward pass keeps for the backward one (a conv's, its BatchNorm's and its ReLU's output, at
+each layer, as a forward pass on the meta device makes them), the points' decorations and features, the
 loss's per-anchor temporaries, the loader's prefetched batches, and the matrix of the NMS. It is
 held to `MEMORY_SHARE` of the device's memory (the rest: Python, torch, the dataset reader, the
 loader's processes); over it is one `UserError` line naming the field to change and its limit.
@@ -11,7 +12,7 @@ Points per frame come from the sensors (at most one point per shot): the dataset
 the scenario a study will generate.
 
 Loader processes are held to the CPU cores this process may use; a checkpoint to resume from must
-be this config's; a list of seeds is bounded. All of it runs in milliseconds.
+be this config's; a list of seeds is bounded. All of it runs in a fraction of a second.
 """
 
 from __future__ import annotations
@@ -28,10 +29,10 @@ from simgen.errors import UserError
 from simgen.scenario import Scenario
 from train.checkpoint import Checkpoint, load_checkpoint
 from train.config import MAX_SEED, POINT_FEATURES, DetectorConfig, weight_fields
+from train.detector.model import Detector
 
 FLOAT = 4  # bytes of a float32; bfloat16 autocast halves the maps on CUDA, the estimate does not count on it
 INDEX = 8  # bytes of an int64
-MAPS_PER_LAYER = 3  # a conv's output, its BatchNorm's and its ReLU's
 GRADIENT_MAPS = 2  # the backward pass holds the gradients of a layer's output and of its input
 TRAINING_COPIES = 4  # of each parameter: the weight, its gradient, AdamW's two moments
 # Building the anchors (train.detector.anchors) holds float64 meshgrids and a float64 (N, 7) array before the
@@ -47,6 +48,7 @@ RUNTIME_BYTES = 256 << 20
 # pair overlaps (41 when none does); NMS runs it on up to `infer.pre_nms` boxes.
 NMS_BYTES_PER_PAIR = 4096
 MEMORY_SHARE = 0.8  # of the device's memory a run may plan to use
+PARTS = ("pillar_encoder", "backbone_2d", "fusion", "head")  # train.detector.model.Detector's
 # The field whose channels make each part's weights
 WIDTHS = {"pillar_encoder": "model.pillar_encoder.channels", "backbone_2d": "model.backbone_2d.channels",
           "fusion": "model.backbone_2d.upsample_channels", "head": "model.backbone_2d.upsample_channels"}
@@ -68,44 +70,46 @@ class MemoryEstimate:
         return self.fixed + batch * self.per_sample + self.nms
 
 
+def meta_detector(config: DetectorConfig) -> Detector:
+    """The config's detector on the meta device (shapes, no memory). Its anchors lie on a stand-in grid of one
+    output cell: the weights do not depend on the grid, and no config's anchors are made before they are weighed."""
+    cell_m = config.data.pillar_size_m * config.model.backbone_2d.output_stride
+    x0, y0, z0, _, _, z1 = config.data.point_range_m
+    one_cell = config.data.model_copy(update={"point_range_m": (x0, y0, z0, x0 + cell_m, y0 + cell_m, z1)})
+    with torch.device("meta"):
+        return Detector(config.model_copy(update={"data": one_cell}))
+
+
 def parameter_counts(config: DetectorConfig) -> dict[str, int]:
-    """Weights of each part of train.detector.model.Detector (BatchNorm's running statistics included)."""
-    model = config.model
-    features = POINT_FEATURES + int(model.fusion.time_channel) + 6  # the point and its offsets (train.detector.pillars)
-    pfn = model.pillar_encoder.channels
-    backbone, inputs = 0, pfn
-    b = model.backbone_2d
-    for layers, channels, up, up_channels in zip(b.layers, b.channels, b.upsample_strides, b.upsample_channels):
-        backbone += 9 * inputs * channels + (layers - 1) * 9 * channels * channels + 4 * channels * layers
-        backbone += channels * up_channels * up * up + 4 * up_channels
-        inputs = channels
-    levels = b.upsample_channels
-    fusion = sum(model.fusion.canvases * 9 * c * c + 4 * c for c in levels) if model.fusion.canvases > 1 else 0
-    per_cell = len(model.head.anchor.yaws_rad)
-    outputs = per_cell * (1 + 7 * model.head.tracklet_boxes + 2)
-    return {"pillar_encoder": features * pfn + 4 * pfn, "backbone_2d": backbone, "fusion": fusion,
-            "head": (sum(levels) + 1) * outputs}
+    """Weights of each part of train.detector.model.Detector (BatchNorm's running statistics included): the
+    floating-point tensors of each part's state dict, counted on its meta-device build."""
+    model = meta_detector(config)
+    return {part: sum(t.numel() for t in getattr(model, part).state_dict().values() if t.is_floating_point())
+            for part in PARTS}
 
 
 def _sample_maps(config: DetectorConfig) -> list[int]:
-    """Elements of each float32 feature map one sample's forward pass makes (each kept `MAPS_PER_LAYER`
-    times where a conv, BatchNorm and ReLU make it)."""
-    model, (rows, cols) = config.model, config.data.grid_size
-    canvases, b = model.fusion.canvases, model.backbone_2d
-    maps = [canvases * model.pillar_encoder.channels * rows * cols] * 3  # zeros, index_copy, the contiguous permute
-    out_rows, out_cols = config.output_grid
-    for layers, stride, channels, up_channels in zip(b.layers, b.strides, b.channels, b.upsample_channels):
-        rows, cols = -(-rows // stride), -(-cols // stride)
-        maps += [canvases * channels * rows * cols] * (MAPS_PER_LAYER * layers)
-        maps += [canvases * up_channels * out_rows * out_cols] * MAPS_PER_LAYER
-    cells = out_rows * out_cols
-    if canvases > 1:  # late fusion: the frames made contiguous for the Conv3d, then a conv, BatchNorm and ReLU
-        maps += [canvases * c * cells for c in b.upsample_channels]
-        maps += [c * cells for c in b.upsample_channels] * MAPS_PER_LAYER
-    maps.append(sum(b.upsample_channels) * cells)  # the levels concatenated
-    per_cell = len(model.head.anchor.yaws_rad) * (1 + 7 * model.head.tracklet_boxes + 2)
-    maps += [per_cell * cells] * 2  # the head's convs, and their outputs per anchor
-    return maps
+    """Elements of each float32 feature map one sample's forward pass makes, found by running it on the meta
+    device from the pseudo-images: every tensor a module of the backbone, the fusion or the head reads or
+    makes (each conv's, BatchNorm's and ReLU's output, the levels concatenated), the head's outputs per anchor,
+    and the pseudo-images twice more (train.detector.sparse_canvas: the zeros and the pillars scattered)."""
+    model, (rows, cols) = meta_detector(config), config.data.grid_size
+    canvases = config.model.fusion.canvases
+    seen: dict[int, torch.Tensor] = {}  # by id, each held so that no id is reused
+
+    def record(module: torch.nn.Module, inputs: tuple, output: object) -> None:
+        for tensor in (*inputs, output):
+            if isinstance(tensor, torch.Tensor):
+                seen[id(tensor)] = tensor
+
+    for part in ("backbone_2d", "fusion", "head"):
+        for module in getattr(model, part).modules():
+            if not list(module.children()):
+                module.register_forward_hook(record)
+    image = torch.empty(canvases, config.model.pillar_encoder.channels, rows, cols, device="meta")
+    out = model.head(model.fusion(model.backbone_2d(image), 1))
+    maps = [tensor.numel() for tensor in seen.values()]
+    return maps + [image.numel()] * 2 + [out.scores.numel(), out.deltas.numel(), out.direction.numel()]
 
 
 def estimate_memory(config: DetectorConfig, points_per_frame: int, training: bool, host: bool) -> MemoryEstimate:
@@ -201,8 +205,7 @@ def dataset_points_per_frame(dataset: simgen.datasets.Dataset) -> int:
 
 def scenario_points_per_frame(scenario: Scenario) -> int:
     """Most points a frame of the scenario's dataset can hold, before it is generated."""
-    shots_per_s = scenario.scan.density * sum(spec.shots_per_s for spec in scenario.sensor_specs())
-    return math.ceil(shots_per_s / scenario.scan.frame_rate_hz)
+    return math.ceil(scenario.shots_per_frame())
 
 
 def cpu_cores() -> int:

@@ -21,7 +21,7 @@ _HOMES = {
     "Frame": "simgen.datasets.frame",
     "Manifest": "simgen.datasets.manifest",
     "finish_dataset": "simgen.datasets.write",
-    "open": "simgen.datasets.reader",  # simgen.datasets.open(path), as the issue names it: open_dataset
+    "open": "simgen.datasets.reader",  # simgen.datasets.open(path) is open_dataset
     "open_dataset": "simgen.datasets.reader",
     "write_clip": "simgen.datasets.write",
 }

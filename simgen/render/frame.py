@@ -19,9 +19,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from simgen.render.candidates import sphere_candidates
-from simgen.render.noise import noisy_returns, subray_offsets_rad
-from simgen.render.raycast import nearest_part_hits, sphere_hit
-from simgen.render.world import World
+from simgen.render.noise import noisy_returns, return_model, subray_offsets_rad
+from simgen.render.raycast import BodyPairs, NearestPart, PartPoses, RaySpan, nearest_part_hits, sphere_hit
+from simgen.render.world import SlicePoses, World
 from simgen.scan.rays import Rays
 from simgen.scenario import NoiseConfig
 from simgen.scene.pitch import on_line_at
@@ -104,19 +104,38 @@ def _cos_incidence(normals: NDArray, directions: NDArray) -> NDArray[np.float64]
     return np.abs(np.einsum("ni,ni->n", normals, directions)) / np.linalg.norm(normals, axis=1)
 
 
-def cast(world: World, rays: Rays, rng: np.random.Generator, snapshot_s: float | None = None) -> dict:
-    """First hits of every ray: t (inf: none), semantic, instance, reflectivity, cos(incidence); each ray
-    meets the scene at its own time, or every ray at `snapshot_s`."""
-    n = len(rays.time_s)
-    o, d = rays.origin_m, rays.direction
-    t, semantic, reflectivity, cos_incidence = _ground_hits(o, d)
-    instance = np.full(n, -1, np.int32)
-    if n == 0:
-        return {"t": t, "semantic": semantic, "instance": instance, "reflectivity": reflectivity,
-                "cos_incidence": cos_incidence}
+@dataclass(frozen=True)
+class Hits:
+    """The first hit of each of N rays, nearest so far while the stages of `cast` fill it in place."""
 
-    # Bounding spheres of everything but the ground, per time slice: the H bodies, the ball,
-    # then the static objects; each ray meets those of its own slice.
+    t_m: NDArray[np.float64]  # (N,) metres along the ray; inf: none
+    semantic: NDArray[np.uint8]  # (N,) index into simgen.vocab.SEMANTIC_NAMES
+    instance: NDArray[np.int32]  # (N,) track id, BALL_INSTANCE_ID, or -1
+    reflectivity: NDArray[np.float64]  # (N,) 0-1
+    cos_incidence: NDArray[np.float64]  # (N,) |cos| of the angle between the ray and the surface's normal
+
+
+@dataclass(frozen=True)
+class Candidates:
+    """The (ray, sphere) pairs of `sphere_candidates` over one cast's slices, and the poses they refer to."""
+
+    ray: NDArray[np.int64]  # (Q,)
+    kind: NDArray[np.int64]  # (Q,) 0 .. H - 1 a humanoid, H the ball, above it a static object's sphere
+    ray_slice: NDArray[np.int64]  # (Q,) index into `poses`' slices
+    poses: SlicePoses
+    num_humanoids: int
+
+
+def ground_hits(rays: Rays) -> Hits:
+    """Every ray's hit on the ground (z = 0) and its painted lines, in closed form; no instance."""
+    t, semantic, reflectivity, cos_incidence = _ground_hits(rays.origin_m, rays.direction)
+    return Hits(t, semantic, np.full(len(t), -1, np.int32), reflectivity, cos_incidence)
+
+
+def candidates(world: World, rays: Rays, t_max_m: NDArray, snapshot_s: float | None) -> Candidates:
+    """Which rays pass through which bounding spheres before `t_max_m`: the H bodies', the ball's and the
+    static objects', each ray those of its own time slice (every ray the one slice at `snapshot_s`)."""
+    n = len(rays.time_s)
     if snapshot_s is None:
         slice_of_ray = world.slice_index(rays.time_s)
         first = int(slice_of_ray.min())
@@ -136,72 +155,86 @@ def cast(world: World, rays: Rays, rng: np.random.Generator, snapshot_s: float |
         ],
         axis=1,
     )
-    ray, sphere = sphere_candidates(o, d, slice_of_ray - first, t, centres, radius)
-    kind, ray_slice = sphere % centres.shape[1], sphere // centres.shape[1]
+    ray, sphere = sphere_candidates(rays.origin_m, rays.direction, slice_of_ray - first, t_max_m, centres, radius)
+    return Candidates(ray, sphere % centres.shape[1], sphere // centres.shape[1], poses, num_humanoids)
 
-    # Static meshes; a net lets a ray through with its transmission probability.
+
+def static_hits(world: World, rays: Rays, near: Candidates, hits: Hits, rng: np.random.Generator) -> None:
+    """Fold in the static meshes' hits (goals, nets, boards, stand): a net lets a ray through with its
+    transmission probability, drawn from `rng`, at most MAX_NET_PASSES times."""
+    o, d, t = rays.origin_m, rays.direction, hits.t_m
+    n = len(t)
     start = np.zeros(n)
     if world.static.num_faces == 0:
         pending = np.zeros(0, np.int64)
     else:
-        pending = np.arange(n) if world.cast_all_static else np.unique(ray[kind > num_humanoids])
+        pending = np.arange(n) if world.cast_all_static else np.unique(near.ray[near.kind > near.num_humanoids])
     for _ in range(MAX_NET_PASSES):
         if len(pending) == 0:
             break
-        hits = world.static.cast(o[pending] + start[pending, None] * d[pending], d[pending])
-        t_static = hits.t_m + start[pending]
-        nearer = np.isfinite(hits.t_m) & (t_static < t[pending])
+        mesh = world.static.cast(o[pending] + start[pending, None] * d[pending], d[pending])
+        t_static = mesh.t_m + start[pending]
+        nearer = np.isfinite(mesh.t_m) & (t_static < t[pending])
         through = np.zeros(len(pending), bool)
-        nets = nearer & (world.scene.transmission[np.maximum(hits.index, 0)] > 0)
-        through[nets] = rng.random(nets.sum()) < world.scene.transmission[hits.index[nets]]
+        nets = nearer & (world.scene.transmission[np.maximum(mesh.index, 0)] > 0)
+        through[nets] = rng.random(nets.sum()) < world.scene.transmission[mesh.index[nets]]
         stop = nearer & ~through
         idx = pending[stop]
         t[idx] = t_static[stop]
-        semantic[idx] = world.scene.semantic[hits.index[stop]]
-        reflectivity[idx] = world.scene.reflectivity[hits.index[stop]]
-        cos_incidence[idx] = _cos_incidence(hits.normal[stop], d[idx])
+        hits.semantic[idx] = world.scene.semantic[mesh.index[stop]]
+        hits.reflectivity[idx] = world.scene.reflectivity[mesh.index[stop]]
+        hits.cos_incidence[idx] = _cos_incidence(mesh.normal[stop], d[idx])
         start[pending[through]] = t_static[through] + 1e-3
         pending = pending[through]
 
-    # The ball.
-    pair = kind == num_humanoids
-    ball_ray = ray[pair]
-    ball_centre = poses.ball_m[ray_slice[pair]]
-    ball_t = sphere_hit(o[ball_ray], d[ball_ray], ball_centre, BALL_RADIUS_M)
-    hit = ball_t < t[ball_ray]
-    idx = ball_ray[hit]
-    t[idx] = ball_t[hit]
-    semantic[idx] = BALL
-    instance[idx] = BALL_INSTANCE_ID
-    reflectivity[idx] = BALL_REFLECTIVITY
-    cos_incidence[idx] = _cos_incidence(o[idx] + ball_t[hit, None] * d[idx] - ball_centre[hit], d[idx])
 
-    # The humanoids: every part of each candidate's body, posed at the ray's slice.
-    pair = kind < num_humanoids
-    if pair.any():
-        hits = world.parts.cast(o, d, t, ray[pair], ray_slice[pair], kind[pair], poses.rotation, poses.translation_m)
-        template, face = np.full(n, -1, np.int64), np.full(n, -1, np.int64)
-        nearest_part_hits(
-            hits.ray,
-            hits.template,
-            hits.t_start_m,
-            hits.t_hit_m,
-            hits.face,
-            hits.normal,
-            hits.direction,
-            world.parts.face_start,
-            t,
-            template,
-            face,
-            cos_incidence,
-        )
-        got = np.nonzero(template >= 0)[0]
-        humanoid = template[got] % num_humanoids
-        semantic[got] = world.semantic[humanoid]
-        instance[got] = world.clip.track_id[humanoid]
-        reflectivity[got] = world.face_reflectivity[face[got]]
-    return {"t": t, "semantic": semantic, "instance": instance, "reflectivity": reflectivity,
-            "cos_incidence": cos_incidence}
+def ball_hits(rays: Rays, near: Candidates, hits: Hits) -> None:
+    """Fold in the ball's hits: an analytic sphere at each ray's slice."""
+    o, d = rays.origin_m, rays.direction
+    pair = near.kind == near.num_humanoids
+    ball_ray = near.ray[pair]
+    ball_centre = near.poses.ball_m[near.ray_slice[pair]]
+    ball_t = sphere_hit(o[ball_ray], d[ball_ray], ball_centre, BALL_RADIUS_M)
+    hit = ball_t < hits.t_m[ball_ray]
+    idx = ball_ray[hit]
+    hits.t_m[idx] = ball_t[hit]
+    hits.semantic[idx] = BALL
+    hits.instance[idx] = BALL_INSTANCE_ID
+    hits.reflectivity[idx] = BALL_REFLECTIVITY
+    hits.cos_incidence[idx] = _cos_incidence(o[idx] + ball_t[hit, None] * d[idx] - ball_centre[hit], d[idx])
+
+
+def humanoid_hits(world: World, rays: Rays, near: Candidates, hits: Hits) -> None:
+    """Fold in the humanoids' hits: every part of each candidate's body, posed at the ray's slice."""
+    pair = near.kind < near.num_humanoids
+    if not pair.any():
+        return
+    n = len(hits.t_m)
+    parts = world.parts.cast(
+        RaySpan(rays.origin_m, rays.direction, hits.t_m),
+        BodyPairs(near.ray[pair], near.ray_slice[pair], near.kind[pair]),
+        PartPoses(near.poses.rotation, near.poses.translation_m),
+    )
+    nearest = NearestPart(hits.t_m, np.full(n, -1, np.int64), np.full(n, -1, np.int64), hits.cos_incidence)
+    nearest_part_hits(parts, world.parts.face_start, nearest)
+    got = np.nonzero(nearest.template >= 0)[0]
+    humanoid = nearest.template[got] % near.num_humanoids
+    hits.semantic[got] = world.semantic[humanoid]
+    hits.instance[got] = world.clip.track_id[humanoid]
+    hits.reflectivity[got] = world.face_reflectivity[nearest.face[got]]
+
+
+def cast(world: World, rays: Rays, rng: np.random.Generator, snapshot_s: float | None = None) -> Hits:
+    """First hits of every ray, each meeting the scene at its own time, or every ray at `snapshot_s`:
+    the ground, then the static meshes, the ball and the humanoids, each stage keeping the nearer hit."""
+    hits = ground_hits(rays)
+    if len(hits.t_m) == 0:
+        return hits
+    near = candidates(world, rays, hits.t_m, snapshot_s)
+    static_hits(world, rays, near, hits, rng)
+    ball_hits(rays, near, hits)
+    humanoid_hits(world, rays, near, hits)
+    return hits
 
 
 def render_frame(
@@ -218,20 +251,8 @@ def render_frame(
     that time (`scan.timing: snapshot`, the paper's sampling of a depth map); otherwise each shot
     meets it at its own time (a real Livox's sweep, `scan.timing: sweep`)."""
     hit = cast(world, expand_subrays(rays, noise), rng, snapshot_s)
-    on = noise.enabled
     k, points, intensity, missed, dropped = noisy_returns(
-        rays.origin_m,
-        rays.direction,
-        hit["t"],
-        hit["reflectivity"],
-        hit["cos_incidence"],
-        noise.subrays,
-        noise.min_range_m,
-        noise.max_range_at_10pct_m,
-        noise.dropout if on else 0.0,
-        noise.range_sigma_m if on else 0.0,
-        np.radians(noise.angle_sigma_deg) if on else 0.0,
-        rng,
+        rays.origin_m, rays.direction, hit.t_m, hit.reflectivity, hit.cos_incidence, return_model(noise), rng
     )
     shot = k // noise.subrays
     return ScanFrame(
@@ -244,8 +265,8 @@ def render_frame(
         head=rays.head[shot],
         sweep=rays.sweep[shot],
         line=rays.line[shot],
-        instance_id=hit["instance"][k],
-        semantic=hit["semantic"][k],
+        instance_id=hit.instance[k],
+        semantic=hit.semantic[k],
         shots=len(rays.time_s),
         dropped=dropped,
         missed=missed,

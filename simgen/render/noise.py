@@ -8,11 +8,38 @@ at 10 % reflectivity, 130 m at 20 %, 260 m at 80 %. All randomness comes from th
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from simgen.scenario import NoiseConfig
+
+
+class ReturnModel(NamedTuple):
+    """The noise model's numbers as the compiled loop takes them (`return_model`)."""
+
+    subrays: int  # rays per shot, consecutive
+    min_range_m: float
+    max_range_at_10pct_m: float  # see `max_range_m`
+    dropout: float  # probability that a return in range is lost
+    range_sigma_m: float
+    angle_sigma_rad: float  # per axis across the beam
+
+
+def return_model(noise: NoiseConfig) -> ReturnModel:
+    """The scenario's noise as `noisy_returns` takes it: no dropout or noise when `noise.enabled` is off
+    (beam divergence and range limits stay)."""
+    on = noise.enabled
+    return ReturnModel(
+        noise.subrays,
+        noise.min_range_m,
+        noise.max_range_at_10pct_m,
+        noise.dropout if on else 0.0,
+        noise.range_sigma_m if on else 0.0,
+        np.radians(noise.angle_sigma_deg) if on else 0.0,
+    )
 
 
 @numba.njit(cache=True)
@@ -32,30 +59,18 @@ def intensity(reflectivity: float, cos_incidence: float) -> int:
 
 
 @numba.njit(cache=True)
-def noisy_returns(
-    origins,
-    directions,
-    t_m,
-    reflectivity,
-    cos_incidence,
-    subrays,
-    min_range_m,
-    max_range_at_10pct_m,
-    dropout,
-    range_sigma_m,
-    angle_sigma_rad,
-    rng,
-):
+def noisy_returns(origins, directions, t_m, reflectivity, cos_incidence, model: ReturnModel, rng):
     """The returns of a sweep's shots (origins, unit directions (N, 3)), with noise.
 
-    The hits (t_m, reflectivity, cos_incidence) come `subrays` per shot, consecutive; a shot
-    returns its nearest if that lies within [min_range_m, `max_range_m`], unless lost with
-    probability `dropout`; its range then gets Gaussian noise (range_sigma_m) and its direction
-    Gaussian angular noise per axis across the beam (angle_sigma_rad). Random numbers are drawn
-    from rng point by point: dropout, range, then the two angles.
+    The hits (t_m, reflectivity, cos_incidence: (N * subrays,)) come `model.subrays` per shot,
+    consecutive; a shot returns its nearest if that lies within [min_range_m, `max_range_m`], unless
+    lost with probability `dropout`; its range then gets Gaussian noise (range_sigma_m) and its
+    direction Gaussian angular noise per axis across the beam (angle_sigma_rad). Random numbers are
+    drawn from rng point by point: dropout, range, then the two angles.
 
     Returns (hit index (P,), points (P, 3) float32 metres, intensity (P,) uint8, missed, dropped).
     """
+    subrays, min_range_m, max_range_at_10pct_m, dropout, range_sigma_m, angle_sigma_rad = model
     shots = len(origins)
     ray = np.empty(shots, np.int64)
     points = np.empty((shots, 3), np.float32)

@@ -16,6 +16,7 @@ Ray parameters t are in units of the (unit) direction, i.e. metres.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -29,8 +30,8 @@ BOX_MARGIN_M = 1e-4  # round each template's box, against rounding
 
 
 @dataclass(frozen=True)
-class Hits:
-    """First hits of N rays: t (inf: none), and what was hit."""
+class MeshHits:
+    """First hits of N rays on a static mesh: t (inf: none), and what was hit."""
 
     t_m: NDArray[np.float64]  # (N,)
     index: NDArray[np.int64]  # (N,) triangle index, or part index for bodies; -1 for none
@@ -57,6 +58,60 @@ def _cast(scene, origins: NDArray, directions: NDArray) -> tuple[NDArray, NDArra
     return t, primitive, normal
 
 
+class RaySpan(NamedTuple):
+    """N rays and how far along each to look (a NamedTuple: compiled loops take it whole)."""
+
+    origin_m: NDArray[np.float64]  # (N, 3) pitch frame
+    direction: NDArray[np.float64]  # (N, 3) unit
+    t_max_m: NDArray[np.float64]  # (N,) nearest hit so far
+
+
+class BodyPairs(NamedTuple):
+    """(ray, time slice, humanoid) pairs whose ray passes through the humanoid's bounding sphere."""
+
+    ray: NDArray[np.int64]  # (Q,)
+    time_slice: NDArray[np.int64]  # (Q,) index into the poses' slices
+    humanoid: NDArray[np.int64]  # (Q,)
+
+
+class PartPoses(NamedTuple):
+    """Every humanoid's rigid parts at S time slices (`simgen.render.world.SlicePoses`)."""
+
+    rotation: NDArray[np.float64]  # (S, H, P, 3, 3) part -> pitch coordinates
+    translation_m: NDArray[np.float64]  # (S, H, P, 3)
+
+
+class TemplateBounds(NamedTuple):
+    """Each template's bounds in its own frame and its place in the templates' scene (T templates)."""
+
+    centre: NDArray[np.float64]  # (T, 3) bounding sphere's centre
+    radius: NDArray[np.float64]  # (T,) bounding sphere's radius
+    low: NDArray[np.float64]  # (T, 3) box round the template
+    high: NDArray[np.float64]  # (T, 3)
+    offset: NDArray[np.float64]  # (T, 3) template -> scene coordinates
+
+
+class PartHits(NamedTuple):
+    """What Embree returned for the K rays cast at templates, in template coordinates."""
+
+    ray: NDArray[np.int64]  # (K,) index of the ray
+    template: NDArray[np.int64]  # (K,)
+    t_start_m: NDArray[np.float64]  # (K,) where the cast began along the ray
+    t_hit_m: NDArray[np.float32]  # (K,) from t_start; inf: none
+    face: NDArray[np.uint32]  # (K,) triangle index over all templates (`PartCaster.face_start`)
+    normal: NDArray[np.float32]  # (K, 3) template frame
+    direction: NDArray[np.float32]  # (K, 3) the ray's direction, template frame
+
+
+class NearestPart(NamedTuple):
+    """Per ray, the nearest part hit so far, filled in place by `nearest_part_hits`."""
+
+    t_m: NDArray[np.float64]  # (N,) inf: none
+    template: NDArray[np.int64]  # (N,) -1: none
+    face: NDArray[np.int64]  # (N,) -1: none
+    cos_incidence: NDArray[np.float64]  # (N,) |cos| of the incidence angle
+
+
 class StaticCaster:
     """Embree scene of static triangles (pitch frame), built once."""
 
@@ -64,12 +119,12 @@ class StaticCaster:
         self.num_faces = len(faces)
         self._scene = _scene(vertices, faces)
 
-    def cast(self, origins: NDArray, directions: NDArray) -> Hits:
+    def cast(self, origins: NDArray, directions: NDArray) -> MeshHits:
         if self.num_faces == 0 or len(origins) == 0:
             n = len(origins)
-            return Hits(np.full(n, np.inf), np.full(n, -1, np.int64), np.zeros((n, 3)))
+            return MeshHits(np.full(n, np.inf), np.full(n, -1, np.int64), np.zeros((n, 3)))
         t, primitive, normal = _cast(self._scene, origins, directions)
-        return Hits(t, primitive, normal)
+        return MeshHits(t, primitive, normal)
 
 
 class PartCaster:
@@ -79,43 +134,28 @@ class PartCaster:
         """templates: (vertices (V, 3) in the template's own frame, faces (F, 3)) each."""
         vertex_start = np.cumsum([0] + [len(v) for v, _ in templates])
         self.face_start = np.cumsum([0] + [len(f) for _, f in templates])
-        self.low = np.stack([v.min(axis=0) for v, _ in templates]) - BOX_MARGIN_M  # box round each template
-        self.high = np.stack([v.max(axis=0) for v, _ in templates]) + BOX_MARGIN_M
-        self.centre = (self.low + self.high) / 2
-        self.radius = (
-            np.array([np.linalg.norm(v - c, axis=1).max() for (v, _), c in zip(templates, self.centre)]) + BOX_MARGIN_M
-        )
+        low = np.stack([v.min(axis=0) for v, _ in templates]) - BOX_MARGIN_M  # box round each template
+        high = np.stack([v.max(axis=0) for v, _ in templates]) + BOX_MARGIN_M
+        centre = (low + high) / 2
+        radius = np.array([np.linalg.norm(v - c, axis=1).max() for (v, _), c in zip(templates, centre)]) + BOX_MARGIN_M
         # Templates on a cubic grid, their bounding spheres apart, near the scene's origin (float32).
         side = int(np.ceil(len(templates) ** (1 / 3)))
         cell = np.stack(np.unravel_index(np.arange(len(templates)), (side, side, side)), axis=1)
-        self.offset = cell * (2 * self.radius.max() + TEMPLATE_GAP_M) - self.centre
+        offset = cell * (2 * radius.max() + TEMPLATE_GAP_M) - centre
+        self.bounds = TemplateBounds(centre, radius, low, high, offset)
         self._scene = _scene(
-            np.concatenate([v + o for (v, _), o in zip(templates, self.offset)]),
+            np.concatenate([v + o for (v, _), o in zip(templates, offset)]),
             np.concatenate([f + start for (_, f), start in zip(templates, vertex_start)]),
         )
 
-    def cast(self, origins, directions, t_max, pair_ray, pair_slice, pair_humanoid, rotation, translation) -> PartHits:
-        """Cast every part of the humanoid of each (ray, slice, humanoid) pair; parts posed by
-        rotation (S, H, P, 3, 3) and translation (S, H, P, 3), template p * H + h.
+    def cast(self, rays: RaySpan, pairs: BodyPairs, poses: PartPoses) -> PartHits:
+        """Cast every part of the humanoid of each (ray, slice, humanoid) pair, posed at that slice;
+        template p * H + h.
 
         A part is cast only if the ray enters its bounding sphere, then its box, before t_max[ray],
         and from the box on, so no other template can be reached first; hits beyond t_max are dropped.
         """
-        local, ray, template, t_start = _part_rays(
-            origins,
-            directions,
-            t_max,
-            pair_ray,
-            pair_slice,
-            pair_humanoid,
-            rotation,
-            translation,
-            self.centre,
-            self.radius,
-            self.low,
-            self.high,
-            self.offset,
-        )
+        local, ray, template, t_start = _part_rays(rays, pairs, poses, self.bounds)
         result = self._scene.cast_rays(o3d.core.Tensor(local), nthreads=1)
         return PartHits(
             ray,
@@ -128,26 +168,15 @@ class PartCaster:
         )
 
 
-@dataclass(frozen=True)
-class PartHits:
-    """What Embree returned for the K rays cast at templates, in template coordinates."""
-
-    ray: NDArray[np.int64]  # (K,) index of the ray
-    template: NDArray[np.int64]  # (K,)
-    t_start_m: NDArray[np.float64]  # (K,) where the cast began along the ray
-    t_hit_m: NDArray[np.float32]  # (K,) from t_start; inf: none
-    face: NDArray[np.uint32]  # (K,) triangle index over all templates (`PartCaster.face_start`)
-    normal: NDArray[np.float32]  # (K, 3) template frame
-    direction: NDArray[np.float32]  # (K, 3) the ray's direction, template frame
-
-
 @numba.njit(cache=True)
-def _part_rays(
-    o, d, t_max, pair_ray, pair_slice, pair_humanoid, rotation, translation, centre, radius, low, high, offset
-):
-    """Per (pair, part) whose bounding sphere, then box (low, high in part coordinates), the ray
-    enters before t_max: the ray in template coordinates from its box entry, (K, 6) float32
-    origin + direction, its ray, template and t_start."""
+def _part_rays(rays: RaySpan, pairs: BodyPairs, poses: PartPoses, bounds: TemplateBounds):
+    """Per (pair, part) whose bounding sphere, then box (in part coordinates), the ray enters before
+    its t_max: the ray in template coordinates from its box entry, (K, 6) float32 origin + direction,
+    its ray, template and t_start."""
+    o, d, t_max = rays
+    pair_ray, pair_slice, pair_humanoid = pairs
+    rotation, translation = poses
+    centre, radius, low, high, offset = bounds
     num_slices, num_humanoids, num_parts = rotation.shape[:3]
     # Bounding-sphere centres of the posed parts, pitch frame.
     centre_world = np.empty((num_slices, num_humanoids, num_parts, 3))
@@ -211,22 +240,12 @@ def _part_rays(
 
 
 @numba.njit(cache=True)
-def nearest_part_hits(
-    hits_ray,
-    hits_template,
-    t_start,
-    t_hit,
-    face,
-    normal,
-    direction,
-    face_start,
-    t_m,
-    hit_template,
-    hit_face,
-    cos_incidence,
-):
-    """Fold part hits into the rays' nearest hits so far: where a hit on the ray's own template lies
-    nearer than t_m[ray], set t_m, hit_template, hit_face and |cos| of the incidence angle (in place)."""
+def nearest_part_hits(hits: PartHits, face_start: NDArray[np.int64], nearest: NearestPart) -> None:
+    """Fold part hits into the rays' nearest hits so far: where a hit on the ray's own template (its
+    faces face_start[j] .. face_start[j + 1] - 1) lies nearer than nearest.t_m[ray], set `nearest`'s
+    t_m, template, face and |cos| of the incidence angle (in place)."""
+    hits_ray, hits_template, t_start, t_hit, face, normal, direction = hits
+    t_m, hit_template, hit_face, cos_incidence = nearest
     for k in range(len(hits_ray)):
         j = hits_template[k]
         if not (np.isfinite(t_hit[k]) and face_start[j] <= face[k] < face_start[j + 1]):

@@ -56,8 +56,8 @@ class World:
         self.parts = PartCaster([(local[h], faces) for local, faces, _ in templates for h in range(clip.num_humanoids)])
         self.face_reflectivity = np.concatenate([REFLECTIVITY[materials].reshape(-1) for _, _, materials in templates])
         # Parts' bounding spheres in part coordinates, (H, P, 3) and (H, P).
-        self.part_centre_m = self.parts.centre.reshape(self.num_parts, clip.num_humanoids, 3).swapaxes(0, 1)
-        self.part_radius_m = self.parts.radius.reshape(self.num_parts, clip.num_humanoids).T
+        self.part_centre_m = self.parts.bounds.centre.reshape(self.num_parts, clip.num_humanoids, 3).swapaxes(0, 1)
+        self.part_radius_m = self.parts.bounds.radius.reshape(self.num_parts, clip.num_humanoids).T
         self.semantic = np.where(clip.team == "official", OFFICIAL, PLAYER).astype(np.uint8)
         # Goals are small seen from a sensor: only rays through their bounding spheres are cast at
         # them. Boards and a stand surround the sensor: with them, every ray is cast.

@@ -11,7 +11,7 @@ scenario's `custom_sensors` or the preset registry give back (`Sensor.from_recor
 from __future__ import annotations
 
 import functools
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -61,7 +61,10 @@ class Sensor:
     def from_record(cls, record: Mapping, scenario: Mapping) -> Sensor:
         """A recorded sensor, its heads from its preset in `scenario` (a dataset's resolved scenario); ValueError if
         the preset is unknown or has another number of heads."""
-        heads = preset_spec(record["preset"], scenario.get("custom_sensors") or []).heads
+        try:
+            heads = sp.find_sensor(record["preset"], scenario.get("custom_sensors") or []).heads
+        except (AttributeError, KeyError, TypeError, ValueError) as error:  # a manifest edited by hand
+            raise ValueError(f"sensor preset {record['preset']!r}: {' '.join(str(error).splitlines())[:200]}") from None
         if len(heads) != record["heads"]:
             raise ValueError(
                 f"sensor {record['name']!r}: {record['heads']} heads, preset {record['preset']!r} has {len(heads)}"
@@ -113,18 +116,6 @@ def euler_rotation(yaw_deg: float, pitch_deg: float, roll_deg: float) -> NDArray
     return Rotation.from_euler("ZYX", [yaw_deg, -pitch_deg, roll_deg], degrees=True).as_matrix()
 
 
-def preset_spec(preset: str, custom_sensors: Sequence[Mapping]) -> sp.SensorSpec:
-    """The scan-pattern sensor of a preset name: one of `custom_sensors` (a scenario's), else the registry's;
-    ValueError naming it if it is neither."""
-    try:
-        for spec in custom_sensors:
-            if spec.get("name") == preset:
-                return sp.make_sensor(spec)
-        return sp.get_sensor(preset)
-    except (AttributeError, KeyError, TypeError, ValueError) as error:  # a manifest edited by hand
-        raise ValueError(f"sensor preset {preset!r}: {' '.join(str(error).splitlines())[:200]}") from None
-
-
 def scenario_sensors(scenario: Scenario) -> tuple[Sensor, ...]:
     """The scenario's sensors, resolved: each `sensors` entry's preset, pose and the scan's rates."""
     scan = scenario.scan
@@ -135,10 +126,12 @@ def scenario_sensors(scenario: Scenario) -> tuple[Sensor, ...]:
             preset=sensor.preset,
             pose=(sensor.pose.x, sensor.pose.y, sensor.pose.z, sensor.pose.roll, sensor.pose.pitch, sensor.pose.yaw),
             heads=spec.heads,
-            shots_per_s=spec.shots_per_s * scan.density,
+            shots_per_s=shots_per_s,
             frame_rate_hz=scan.frame_rate_hz,
             sweeps_per_frame=scan.sweeps_per_frame,
             density=scan.density,
         )
-        for i, (sensor, spec) in enumerate(zip(scenario.sensors, scenario.sensor_specs(), strict=True))
+        for i, (sensor, spec, shots_per_s) in enumerate(
+            zip(scenario.sensors, scenario.sensor_specs(), scenario.sensor_shots_per_s(), strict=True)
+        )
     )

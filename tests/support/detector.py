@@ -13,7 +13,6 @@ SMOKE = ROOT / "scenarios" / "smoke.yaml"
 # The touchline sensor's side of the centre circle: 128 x 128 pillars, ~10 players.
 TINY_RANGE_M = [-16.0, -24.0, -0.1, 16.0, 8.0, 2.5]
 _made: dict[int, Path] = {}
-FUSION_NAMES = {"single": "none", "early": "early", "late": "late"}  # the paper's method -> model.fusion.name
 
 
 def smoke_dataset(root: Path, frames: int) -> Path:
@@ -43,7 +42,7 @@ def tiny_config(fusion: str, channels: int = 8, **train: object) -> DetectorConf
                     "channels": [channels, channels, 2 * channels],
                     "upsample_channels": [channels] * 3,
                 },
-                "fusion": {"name": FUSION_NAMES[fusion]},
+                "fusion": {"name": fusion},
                 "head": {"tracklet_boxes": 3 if fusion == "late" else 1},
             },
             "train": {"workers": 0, "log_every": 1, **train},

@@ -1,4 +1,4 @@
-"""How the frames' features meet (`model.fusion.name`): none (one frame), early (sweeps merged before the
+"""How the frames' features meet (`model.fusion.name`): single (one frame), early (sweeps merged before the
 pillars), or late (the paper's module).
 
 Late fusion: per backbone level, the three frames' features (C, 3, H, W) go through a 3x3x3
@@ -17,7 +17,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from train.config import EarlyFusionConfig, LateFusionConfig, NoFusionConfig
+from train.config import EarlyFusionConfig, LateFusionConfig, SingleFrameConfig
 from train.detector.registry import FUSIONS
 
 
@@ -95,8 +95,8 @@ def _side_by_side(features: torch.Tensor, batch_size: int, frames: int) -> torch
     return per_cell.view(batch_size, h, w, frames * c).permute(0, 3, 1, 2)
 
 
-@FUSIONS.register("none", "early")
-def _concat(section: NoFusionConfig | EarlyFusionConfig, channels: tuple[int, ...]) -> ConcatLevels:
+@FUSIONS.register("single", "early")
+def _concat(section: SingleFrameConfig | EarlyFusionConfig, channels: tuple[int, ...]) -> ConcatLevels:
     return ConcatLevels()
 
 

@@ -31,7 +31,7 @@ class Detector(nn.Module):
     """Batch -> per-anchor scores, K boxes and direction logits: pillar encoder, 2D backbone, fusion, head.
 
     The backbone runs on `fusion.canvases` pseudo-images per sample (late: one per frame; early:
-    the sweeps merged, with a time channel; none: frame t), and the fusion turns its levels into
+    the sweeps merged, with a time channel; single: frame t), and the fusion turns its levels into
     the head's input.
     """
 
