@@ -82,4 +82,6 @@ def _check_parent(path: Path, target: Path) -> None:
     if not parent.is_dir():
         raise UserError(f"{path}: below {parent}, which is a file, not a folder")
     if not os.access(parent, os.W_OK | os.X_OK):
+        if os.statvfs(parent).f_flag & os.ST_RDONLY:
+            raise UserError(f"{path}: read-only file system")  # as the CLI says it when a write is refused
         raise UserError(f"{path}: {parent} is not a writable folder")

@@ -317,3 +317,22 @@ def test_unpack_checks_the_declared_sizes_before_expanding(hidden_bomb, tmp_path
     assert "row group 0 declares 3,000,000 rows, at most 150,030 fit the dataset's sensors" in err
     assert peak < MAX_PROCESS_BYTES
     assert sorted(p.name for p in tmp_path.iterdir()) == ["packed"]
+
+
+# --- 7. messages: one short line naming what the user gave ---------------------------------------
+
+
+def test_a_5000_digit_frame_range_is_not_echoed_whole(dataset, tmp_path):
+    for frames in (f"0:{'9' * 5000}", f"{'9' * 5000}"):
+        code, out, err = _simgen("view", dataset, "--frames", frames, "-o", tmp_path / "out")
+        assert_one_line_refusal(code, out, err, frames[:10])
+        assert len(err) < 200 and "5,0" in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unpack_names_the_packed_files_not_its_staging_folder(packed, tmp_path):
+    copy = _copy(packed, tmp_path / "packed")
+    (copy / PACKED_NAME).write_text("{")
+    code, out, err = _simgen("unpack", copy, "-o", tmp_path / "out")
+    assert_one_line_refusal(code, out, err, "packed.json")
+    assert f"{copy / PACKED_NAME}: not a readable manifest" in err and ".partial" not in err
