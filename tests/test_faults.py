@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import json
 import os
 import shutil
 import socket
@@ -336,3 +337,22 @@ def test_unpack_names_the_packed_files_not_its_staging_folder(packed, tmp_path):
     code, out, err = _simgen("unpack", copy, "-o", tmp_path / "out")
     assert_one_line_refusal(code, out, err, "packed.json")
     assert f"{copy / PACKED_NAME}: not a readable manifest" in err and ".partial" not in err
+
+
+def test_a_bag_holding_more_points_than_its_manifest_lists_is_refused_before_it_is_decompressed(tmp_path):
+    """An `mcap` dataset whose bag holds a frame of `BOMB_POINTS` points (a few hundred KB of zstd) while its
+    manifest lists 1,000 points for the clip: the chunks' declared sizes give it away before any is expanded."""
+    root = tmp_path / "dataset"
+    clip = make_clip("clip_0000", 2, points=0, humanoids=0)
+    clip[0] = dataclasses.replace(clip[0], scan=_zeros(BOMB_POINTS))
+    write_dataset(root, "mcap", [clip])
+    manifest = json.loads((root / MANIFEST_NAME).read_text())
+    manifest["clips"][0]["points"] = manifest["totals"]["points"] = 1000
+    (root / MANIFEST_NAME).write_text(json.dumps(manifest))
+    assert (root / "clip_0000.mcap").stat().st_size < 3_000_000
+    with pytest.raises(UserError, match=r"chunks declare over .* bytes, more than 1,000 points in 2 frames take"):
+        simgen.datasets.open(root).frame("clip_0000", 0)
+    code, out, err, peak, _ = measured_process("simgen.cli", "export", root, "-o", tmp_path / "out.mcap")
+    assert_one_line_refusal(code, out, err, "export")
+    assert peak < MAX_PROCESS_BYTES
+    assert not (tmp_path / "out.mcap").exists()
