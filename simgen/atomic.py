@@ -20,6 +20,8 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     check_output_allowed(path)
     if path.is_dir():
         raise UserError(f"{path}: is a directory, expected a file name")
+    if path.exists() and not path.is_file():  # the rename would put a regular file where a device was
+        raise UserError(f"{path}: not a regular file, refusing to replace it")
     if not path.parent.is_dir():
         raise UserError(f"{path.parent}: output directory does not exist")
     if not os.access(path.parent, os.W_OK):

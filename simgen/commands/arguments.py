@@ -60,7 +60,12 @@ def frame_range(text: str, frames: int) -> range:
             start = int(text)
             stop = start + 1
     except ValueError:
-        raise UserError(f"--frames: expected A:B or A (whole numbers), got {text!r}") from None
+        raise UserError(f"--frames: expected A:B or A (whole numbers), got {_shown(text)!r}") from None
     if not 0 <= start < stop <= frames:
-        raise UserError(f"--frames {text}: the clip has frames 0-{frames - 1}")
+        raise UserError(f"--frames {_shown(text)}: the clip has frames 0-{frames - 1}")
     return range(start, stop)
+
+
+def _shown(text: str, most: int = 40) -> str:
+    """`text` for a message, cut to `most` characters (a 5,000-digit argument is not echoed whole)."""
+    return text if len(text) <= most else f"{text[:most]}... ({len(text):,} characters)"

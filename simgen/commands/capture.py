@@ -6,9 +6,9 @@ import time
 
 from tqdm import tqdm
 
-from simgen.atomic import check_output_allowed
 from simgen.commands.arguments import add_command, add_scenario_arguments
 from simgen.errors import UserError
+from simgen.output_path import check_output
 
 
 def register(subparsers) -> None:
@@ -43,7 +43,7 @@ def run(args) -> int:
         overrides["seed"] = args.seed
     if overrides:
         scenario = parse_scenario({**scenario.model_dump(), **overrides}, "command line")
-    check_output_allowed(args.output)  # before the engine runs, not after
+    check_output(args.output, "file", reads=[args.scenario])  # before the engine runs, not after
     if args.output.suffix != ".parquet":
         raise UserError(f"{args.output}: a motion clip is a .parquet file")
     if not args.output.parent.is_dir():

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from simgen.commands.arguments import add_command, add_dataset_argument, frame_range
 from simgen.errors import UserError
+from simgen.output_path import check_output
 
 EXPORT_FORMATS = ("mcap",)
 ROS2_LAYOUTS = ("simgen", "livox")
@@ -50,8 +51,7 @@ def run(args) -> int:
     from simgen.datasets.formats import formats_where
     from simgen.datasets.ros2_bag import ALL_POINTS_TOPIC, LAYOUTS, XYZI_LAYOUT, write_bag
 
-    if args.output.is_dir():
-        raise UserError(f"{args.output}: is a directory, expected a file name")
+    check_output(args.output, "file", reads=[args.dataset])
     dataset = open_dataset(args.dataset)
     clip = args.clip if args.clip is not None else dataset.clips[0]
     frames = frame_range(args.frames, dataset.num_frames(clip))
@@ -65,8 +65,10 @@ def run(args) -> int:
         ids = "" if dataset.plugin.carries.track_ids else "; no track ids: marker ids number each frame's boxes"
         print(f"{args.output}: {dataset.format} keeps no sensor, head, time or instance per point: x, y, z, intensity "
               f"on one topic, {ALL_POINTS_TOPIC}{ids}")
+    first = dataset.frame(clip, frames.start)  # a clip that does not read is one line, before the progress bar
     progress = tqdm(frames, unit="frame", desc=f"{clip} -> {args.output.name}", dynamic_ncols=True)
-    summary = write_bag(args.output, (dataset.frame(clip, i) for i in progress), list(dataset.manifest.sensors), layout)
+    read = (first if i == frames.start else dataset.frame(clip, i) for i in progress)
+    summary = write_bag(args.output, read, list(dataset.manifest.sensors), layout)
     print(
         f"{args.output}: {summary.frames} frames of {clip}, {summary.messages} messages (ROS 2, MCAP, {layout.name} "
         f"points)"

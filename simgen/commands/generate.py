@@ -10,6 +10,7 @@ from tqdm import tqdm
 from simgen.commands.arguments import add_command, add_scenario_arguments
 from simgen.datasets.formats import FORMATS
 from simgen.errors import UserError
+from simgen.output_path import check_output
 
 
 def register(subparsers) -> None:
@@ -133,6 +134,7 @@ def run(args) -> int:
         os.environ.setdefault(name, value)
     from simgen.motion.engine import check_level
 
+    check_output(args.output, "folder", reads=[args.scenario])
     scenario = _resolve(args)
     if args.workers < 1 or args.workers > 4 * (os.cpu_count() or 1):
         raise UserError(f"--workers: {args.workers} is not between 1 and {4 * (os.cpu_count() or 1)}")

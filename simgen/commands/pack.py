@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from simgen.commands.arguments import add_command, add_dataset_argument
+from simgen.output_path import check_output
 
 
 def register(subparsers) -> None:
@@ -26,6 +27,7 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from simgen.datasets.compact import pack
 
+    check_output(args.output, "folder", reads=[args.dataset], new=True)
     manifest = pack(args.dataset, args.output, progress=True)
     print(
         f"{args.output}: {len(manifest.files)} files of {args.dataset} packed, {_megabytes(args.dataset)} -> "

@@ -11,6 +11,7 @@ from simgen import __version__
 from simgen.atomic import atomic_path
 from simgen.commands.arguments import LazyText, add_command
 from simgen.errors import UserError
+from simgen.output_path import check_output
 
 MAX_SHOTS = 50_000_000  # ~1.3 GB of output; ask for longer spans in pieces with --start
 
@@ -59,6 +60,7 @@ def run(args) -> int:
         raise UserError(f"--density must be a positive number, got {args.density:g}")
     if not math.isfinite(args.start) or args.start < 0:
         raise UserError(f"--start must be zero or positive, got {args.start:g}")
+    check_output(args.output, "file")
     try:
         sensor = sp.get_sensor(args.preset)
     except ValueError as error:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from simgen.commands.arguments import add_command, add_dataset_argument
 from simgen.errors import UserError
+from simgen.output_path import check_output
 
 DEFAULT_MAX_FRAMES = 500
 
@@ -66,9 +67,7 @@ def run(args) -> int:
     from simgen.qa.checks import exit_code, summary
     from simgen.qa.report import write_report
 
-    out = args.output
-    if out.exists() and not out.is_dir():
-        raise UserError(f"{out}: exists and is not a directory")
+    out = check_output(args.output, "folder", reads=[] if args.dataset is None else [args.dataset])
     created = not out.exists()
     try:
         if args.pattern is not None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from simgen.commands.arguments import add_command
+from simgen.output_path import check_output
 
 
 def register(subparsers) -> None:
@@ -26,6 +27,7 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from simgen.datasets.compact import unpack
 
+    check_output(args.output, "folder", reads=[args.packed], new=True)
     manifest = unpack(args.packed, args.output, progress=True)
     print(f"{args.output}: {manifest.format} dataset, {len(manifest.files)} files, unpacked from {args.packed}")
     return 0

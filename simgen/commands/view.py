@@ -8,6 +8,7 @@ from pathlib import Path
 
 from simgen.commands.arguments import add_command, add_dataset_argument, frame_range
 from simgen.errors import UserError
+from simgen.output_path import check_output
 
 DEFAULT_PX_PER_M = 10.0
 
@@ -74,6 +75,10 @@ def run(args) -> int:
         raise UserError("--export-frame and --no-images need -o OUT")
     if args.rerun is not None and (args.rerun.suffix != ".rrd" or args.rerun.is_dir()):
         raise UserError(f"--rerun {args.rerun}: expected a file name ending in .rrd")
+    if args.rerun is not None:
+        check_output(args.rerun, "file", reads=[args.dataset])
+    if args.output is not None:
+        check_output(args.output, "folder", reads=[args.dataset])
     if args.no_images and not args.export_frame:
         raise UserError("--no-images leaves nothing to write: add --export-frame I")
     started = time.perf_counter()
@@ -81,9 +86,8 @@ def run(args) -> int:
     clip = args.clip if args.clip is not None else dataset.clips[0]
     frames = frame_range(args.frames, dataset.num_frames(clip))
     exports = [frame_range(str(i), dataset.num_frames(clip))[0] for i in args.export_frame]
+    dataset.frame(clip, frames.start)  # a clip that does not read is one line, before any progress bar
     out = args.output
-    if out is not None and out.exists() and not out.is_dir():
-        raise UserError(f"{out}: exists and is not a directory")
     if args.rerun is not None:
         from simgen.view.rerun_view import write_recording
 

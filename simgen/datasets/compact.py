@@ -13,7 +13,9 @@ checksums and row counts.
 from __future__ import annotations
 
 import contextlib
+import os
 import shutil
+import stat
 from dataclasses import replace
 from pathlib import Path
 
@@ -23,11 +25,14 @@ import pyarrow.parquet as pq
 from tqdm import tqdm
 
 from simgen.atomic import atomic_path
+from simgen.datasets.card import dataset_card
 from simgen.datasets.formats import dataset_format
+from simgen.datasets.limits import check_declared_sizes, max_points_per_frame
 from simgen.datasets.manifest import MANIFEST_NAME, Manifest, manifest_bytes, read_manifest
-from simgen.datasets.parquet import table_writer
+from simgen.datasets.parquet import POINTS_FRAMES_PER_GROUP, table_writer
 from simgen.datasets.schema import TABLES
 from simgen.datasets.records import FileRecord, record_file, sha256_file, write_bytes
+from simgen.datasets.write import CARD_NAME, write_card
 from simgen.errors import UserError
 
 COORDINATES = ("x", "y", "z")
@@ -36,62 +41,93 @@ PACKED_NAME = "packed.json"  # a packed copy's manifest (the original's); `open_
 
 
 def pack(dataset: Path, out: Path, progress: bool = False) -> Manifest:
-    """Copy the Parquet dataset `dataset` into `out` (created) with its points in whole millimetres."""
+    """Copy the Parquet dataset `dataset` into `out` (created) with its points in whole millimetres.
+
+    Every file is checked against the manifest's sha256 first; a link (file or folder) is refused, never followed.
+    """
     manifest = read_manifest(dataset)
     if not dataset_format(manifest.format).packable:
         raise UserError(f"{dataset}: pack reads Parquet datasets, this one is {manifest.format}")
+    most = max_points_per_frame(manifest.sensors)
+    sources = _sources(dataset, manifest, MANIFEST_NAME, most)
     with _staging(out) as staging:
-        for record in tqdm(manifest.files, desc=f"pack {out.name}", unit="file", disable=not progress):
+        for record, source in tqdm(zip(manifest.files, sources), desc=f"pack {out.name}", unit="file",
+                                   total=len(sources), disable=not progress):
             target = staging / record.path
+            if sha256_file(source) != record.sha256:
+                raise UserError(f"{source}: sha256 differs from {MANIFEST_NAME} (corrupt or modified)")
             target.parent.mkdir(parents=True, exist_ok=True)
             if _is_points(record):
-                _millimetres(dataset / record.path, target)
+                _millimetres(source, target, record.rows, most)
             else:
-                _copy(dataset / record.path, target)
-        _copy_readme(dataset, staging)
+                shutil.copyfile(source, target)
+        write_card(staging, manifest)
         write_bytes(staging, PACKED_NAME, manifest_bytes(manifest), len(manifest.files))
     return manifest
 
 
 def unpack(packed: Path, out: Path, progress: bool = False) -> Manifest:
-    """Write the dataset that `pack` put in `packed` into `out` (created), points in float32 metres."""
-    if not (packed / PACKED_NAME).is_file():
-        raise UserError(f"{packed}: no {PACKED_NAME}, not a dataset that `simgen pack` wrote")
+    """Write the dataset that `pack` put in `packed` into `out` (created), points in float32 metres.
+
+    Every file, README.md included, is checked against packed.json (sha256, or for the points tables their declared
+    sizes, page checksums and rows) before it is expanded; a link (file or folder) is refused, never followed.
+    """
+    _source(packed, PACKED_NAME, PACKED_NAME, "not a dataset that `simgen pack` wrote")
+    manifest = read_manifest(packed, PACKED_NAME)
+    card = dataset_card(manifest).encode()
+    if (packed / CARD_NAME).exists() or (packed / CARD_NAME).is_symlink():
+        if _source(packed, CARD_NAME, PACKED_NAME).read_bytes() != card:
+            raise UserError(f"{packed / CARD_NAME}: differs from the dataset card {PACKED_NAME} gives (modified?)")
+    most = max_points_per_frame(manifest.sensors)
+    sources = _sources(packed, manifest, PACKED_NAME, most)
     with _staging(out) as staging:
-        shutil.copyfile(packed / PACKED_NAME, staging / MANIFEST_NAME)
-        manifest = read_manifest(staging)
         records = []
-        for record in tqdm(manifest.files, desc=f"unpack {out.name}", unit="file", disable=not progress):
-            source, target = packed / record.path, staging / record.path
+        for record, source in tqdm(zip(manifest.files, sources), desc=f"unpack {out.name}", unit="file",
+                                   total=len(sources), disable=not progress):
+            target = staging / record.path
             target.parent.mkdir(parents=True, exist_ok=True)
             if _is_points(record):
-                _metres(source, target, record.rows)
+                _metres(source, target, record.rows, most)
                 record = record_file(staging, record.path, record.rows)
             else:
-                _copy(source, target)
-                if sha256_file(target) != record.sha256:
+                if sha256_file(source) != record.sha256:
                     raise UserError(f"{source}: sha256 differs from {PACKED_NAME} (damaged on the way?)")
+                shutil.copyfile(source, target)
             records.append(record)
-        _copy_readme(packed, staging)
+        write_bytes(staging, CARD_NAME, card, 0)
         manifest = replace(manifest, files=tuple(records))
         write_bytes(staging, MANIFEST_NAME, manifest_bytes(manifest), len(records))
     return manifest
 
 
+def _sources(root: Path, manifest: Manifest, listed_in: str, most_points: int) -> list[Path]:
+    """Every listed file of `root` (`_source`), the points tables' declared sizes checked: all before any is read."""
+    sources = [_source(root, record.path, listed_in) for record in manifest.files]
+    for record, source in zip(manifest.files, sources):
+        if _is_points(record):
+            with _points_table(source, record.rows, most_points):
+                pass
+    return sources
+
+
+def _source(root: Path, relative: str, listed_in: str, missing: str | None = None) -> Path:
+    """`root / relative`, a regular file reached through no link (checked component by component)."""
+    path = root
+    for part in relative.split("/"):
+        path = path / part
+        try:
+            mode = path.lstat().st_mode
+        except FileNotFoundError:
+            raise UserError(f"{root}: no {relative}, {missing}" if missing else f"{path}: missing ({listed_in} lists it)") from None
+        if stat.S_ISLNK(mode):
+            raise UserError(f"{path}: a link; pack and unpack copy no links (to {os.readlink(path)})")
+    if not stat.S_ISREG(mode):
+        raise UserError(f"{path}: not a regular file")
+    return path
+
+
 def _is_points(record: FileRecord) -> bool:
     return record.path.startswith("points/")
-
-
-def _copy(source: Path, target: Path) -> None:
-    if not source.is_file():
-        raise UserError(f"{source}: missing (the manifest lists it)")
-    shutil.copyfile(source, target)
-
-
-def _copy_readme(source: Path, staging: Path) -> None:
-    """The dataset card, if there is one (`manifest.json` does not list it)."""
-    if (source / "README.md").is_file():
-        shutil.copyfile(source / "README.md", staging / "README.md")
 
 
 class _staging:
@@ -115,13 +151,13 @@ class _staging:
 
 
 @contextlib.contextmanager
-def _points_table(path: Path):
-    """Yields `path`'s row groups (page checksums verified); a missing, unreadable or foreign points
-    table is a one-line `UserError` (the disk's own errors, which carry an errno, pass through)."""
-    if not path.is_file():
-        raise UserError(f"{path}: missing (the manifest lists it)")
+def _points_table(path: Path, rows: int, most_points: int):
+    """Yields `path`'s row groups (page checksums verified), their declared rows and bytes checked first (`rows` in
+    all, at most `most_points` a frame); a missing, unreadable or foreign points table is a one-line `UserError`
+    (the disk's own errors, which carry an errno, pass through)."""
     try:
         source = pq.ParquetFile(path, page_checksum_verification=True)
+        check_declared_sizes(source, path, rows, POINTS_FRAMES_PER_GROUP * most_points)
         yield (source.read_row_group(group) for group in range(source.num_row_groups))
     except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError, KeyError, OSError) as error:
         if isinstance(error, OSError) and error.errno is not None:
@@ -130,9 +166,9 @@ def _points_table(path: Path):
         raise UserError(f"{path}: not a readable points table ({error.__class__.__name__}: {said})") from None
 
 
-def _millimetres(source: Path, target: Path) -> None:
+def _millimetres(source: Path, target: Path, rows: int, most_points: int) -> None:
     """A points table with x, y, z in whole millimetres (int32)."""
-    with _points_table(source) as groups:
+    with _points_table(source, rows, most_points) as groups:
         schema = pa.schema([pa.field(f.name, pa.int32()) if f.name in COORDINATES else f for f in TABLES["points"]])
         floats = [f.name for f in schema if pa.types.is_floating(f.type)]
         encodings = {c: "DELTA_BINARY_PACKED" for c in COORDINATES} | {c: "BYTE_STREAM_SPLIT" for c in floats}
@@ -147,10 +183,10 @@ def _millimetres(source: Path, target: Path) -> None:
                 writer.write_table(table.cast(schema), row_group_size=max(len(table), 1))
 
 
-def _metres(source: Path, target: Path, rows: int) -> None:
+def _metres(source: Path, target: Path, rows: int, most_points: int) -> None:
     """The reader's points table back from `_millimetres`'s: x, y, z in float32 metres."""
     written = 0
-    with _points_table(source) as groups, atomic_path(target) as tmp, table_writer(tmp, "points") as writer:
+    with _points_table(source, rows, most_points) as groups, atomic_path(target) as tmp, table_writer(tmp, "points") as writer:
         for table in groups:
             for c in COORDINATES:
                 metres = (table[c].to_numpy() / np.float64(MM_PER_M)).astype(np.float32)

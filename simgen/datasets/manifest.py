@@ -20,6 +20,7 @@ from typing import Annotated, Any, Literal
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from simgen.datasets.formats import FORMATS
+from simgen.datasets.limits import check_points, max_points_per_frame
 from simgen.datasets.records import FileRecord
 from simgen.datasets.schema import BOX_CONVENTION, PITCH_FRAME, SCHEMA_VERSION
 from simgen.errors import UserError
@@ -194,13 +195,13 @@ def manifest_bytes(manifest: Manifest) -> bytes:
     return (json.dumps(manifest.to_dict(), indent=1, sort_keys=True) + "\n").encode()
 
 
-def read_manifest(root: Path) -> Manifest:
-    """The dataset's manifest; a missing, malformed or foreign one is a one-line `UserError`."""
-    path = root / MANIFEST_NAME
+def read_manifest(root: Path, name: str = MANIFEST_NAME) -> Manifest:
+    """The dataset's manifest (`root / name`); a missing, malformed or foreign one is a one-line `UserError`."""
+    path = root / name
     if not root.is_dir():
         raise UserError(f"{root}: no such dataset directory")
     if not path.exists() and not path.is_symlink():
-        raise UserError(f"{root}: no {MANIFEST_NAME}, not a simgen dataset")
+        raise UserError(f"{root}: no {name}, not a simgen dataset")
     raw = read_limited(path, "manifest", MAX_MANIFEST_BYTES)
     try:
         data = json.loads(raw.decode("utf-8"))
@@ -213,9 +214,13 @@ def read_manifest(root: Path) -> Manifest:
     if data.get("format") not in FORMATS:
         raise UserError(f"{path}: unknown format {data.get('format')!r} (simgen writes {', '.join(FORMATS)})")
     try:
-        return Manifest.from_dict(data)
+        manifest = Manifest.from_dict(data)
     except ValidationError as error:
         extra = f" (and {error.error_count() - 1} more)" if error.error_count() > 1 else ""
         raise UserError(f"{path}: malformed manifest: {one_line(error)}{extra}") from None
     except ValueError as error:
         raise UserError(f"{path}: malformed manifest: {error}") from None
+    most = max_points_per_frame(manifest.sensors)
+    for entry in manifest.clips:
+        check_points(path, f"clip {entry.clip}", entry.points, entry.frames, most)
+    return manifest

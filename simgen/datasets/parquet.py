@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from simgen.atomic import atomic_path
 from simgen.datasets.frame import Frame, class_names
+from simgen.datasets.limits import check_declared_sizes, check_points
 from simgen.datasets.records import FileRecord, record_file
 from simgen.datasets.schema import (
     BOX_FIELDS,
@@ -327,15 +328,22 @@ class _ClipTables:
 
 
 class ParquetReader:
-    """Frames of a Parquet dataset."""
+    """Frames of a Parquet dataset whose frames hold at most `most_points` points (`limits.max_points_per_frame`)."""
 
-    def __init__(self, files: DatasetFiles):
+    def __init__(self, files: DatasetFiles, most_points: int):
         self.files = files
+        self.most_points = most_points
         self._clip = functools.lru_cache(maxsize=OPEN_CLIPS)(self._load_clip)
         self._last_group: tuple[tuple[str, int] | None, pa.Table | None] = (None, None)
 
     def _open(self, name: str, clip: str) -> pq.ParquetFile:
-        return open_table(self.files.path(table_path(name, clip)), name)
+        """The table, its declared rows and bytes checked (nothing read yet)."""
+        relative = table_path(name, clip)
+        parquet = open_table(self.files.path(relative), name)
+        rows = self.files.rows(relative)
+        per_group = {"frames": FRAMES_PER_GROUP, "points": POINTS_FRAMES_PER_GROUP * self.most_points}.get(name, rows)
+        check_declared_sizes(parquet, self.files.root / relative, rows, per_group)
+        return parquet
 
     def _read(self, name: str, clip: str) -> pa.Table:
         try:
@@ -344,13 +352,14 @@ class ParquetReader:
             raise UserError(f"{self.files.root / table_path(name, clip)}: unreadable ({error})") from None
 
     def _load_clip(self, clip: str) -> _ClipTables:
-        frames = self._read("frames", clip)
+        frames = self._read("frames", clip)  # as many rows as manifest.json lists: `_open` checks it
+        count = len(frames)
+        counts = frames["num_points"].to_numpy()
+        if count:  # before any of the points is read
+            worst = int(np.argmax(counts))
+            check_points(self.files.root / table_path("frames", clip), f"frame {worst}", int(counts[worst]), 1, self.most_points)
         boxes = self._read("boxes", clip)
         points = self._open("points", clip)
-        count = len(frames)
-        if count != self.files.rows(table_path("frames", clip)):  # never fewer frames than the files hold, silently
-            listed = self.files.rows(table_path("frames", clip))
-            raise UserError(f"{self.files.root / table_path('frames', clip)}: holds {count} frames, manifest.json lists {listed}")
         path = self.files.root / table_path("points", clip)
         groups = -(-count // POINTS_FRAMES_PER_GROUP)
         if points.metadata.num_row_groups != groups or not np.array_equal(frames["frame"].to_numpy(), np.arange(count)):

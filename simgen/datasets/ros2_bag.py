@@ -50,12 +50,16 @@ from simgen.vocab import OFFICIAL_CLASS
 
 if TYPE_CHECKING:
     from simgen.labels.labelled_frame import LabelledFrame
+    from simgen.datasets.manifest import Manifest
     from simgen.scan.sensor import Sensor
 
 WORLD_FRAME = "pitch"
 ALL_POINTS_TOPIC = "/simgen/points"
 BOXES_TOPIC = "/simgen/boxes"
 TF_STATIC_TOPIC = "/tf_static"
+#: Bytes a frame's messages take besides its points (boxes, keypoints and headers of 25 humanoids: 13.5 KB), rounded up.
+FRAME_BYTES = 1 << 17
+BAG_BYTES = 1 << 20  # schemas, channels, /tf_static of up to 255 sensors, rounded up
 FLOAT32, FLOAT64, UINT8, UINT32, INT32 = 7, 8, 2, 6, 5  # sensor_msgs/PointField datatypes
 DATATYPE_NAMES = {FLOAT32: "FLOAT32", FLOAT64: "FLOAT64", UINT8: "UINT8", UINT32: "UINT32", INT32: "INT32"}
 #: (name, offset, PointField datatype, numpy type): livox_ros_driver2's 26-byte point, then simgen's fields.
@@ -382,19 +386,38 @@ def boxes_of(message) -> tuple[NDArray[np.float32], NDArray[np.str_], NDArray[np
     return boxes.astype(np.float32), np.array([m.text for m in cubes], np.str_), ids, np.isin(ids, placed)
 
 
+def check_declared_size(data: bytes, path: Path, points: int, frames: int) -> None:
+    """Before anything is decompressed: the bag's chunks declare at most what `frames` frames holding `points`
+    points in all take (`SIMGEN_LAYOUT`'s bytes a point, `FRAME_BYTES` a frame besides, `BAG_BYTES` once)."""
+    from mcap.records import Chunk
+    from mcap.stream_reader import StreamReader
+
+    most = points * SIMGEN_LAYOUT.step + frames * FRAME_BYTES + BAG_BYTES
+    declared = 0
+    for record in StreamReader(io.BytesIO(data), emit_chunks=True).records:
+        declared += record.uncompressed_size if isinstance(record, Chunk) else 0
+        if declared > most:
+            raise UserError(f"{path}: its chunks declare over {most:,} bytes, more than {points:,} points in {frames:,} "
+                            f"frames take (manifest.json)")
+
+
 class BagReader:
     """Frames of an `mcap` dataset (points grouped by sensor, in sensor order)."""
 
-    def __init__(self, files: DatasetFiles, sensors: Sequence[Sensor]):
+    def __init__(self, files: DatasetFiles, manifest: Manifest):
         self.files = files
-        self.sensors = sorted(sensors, key=lambda s: s.sensor_id)
+        self.sensors = sorted(manifest.sensors, key=lambda s: s.sensor_id)
+        self.clips = {entry.clip: entry for entry in manifest.clips}
         self._clip = functools.lru_cache(maxsize=2)(self._load)
 
     def _load(self, clip: str) -> dict[str, list]:
         relative = bag_path(clip)
         data = self.files.read(relative)
         try:
+            check_declared_size(data, self.files.root / relative, self.clips[clip].points, self.clips[clip].frames)
             return read_bag(io.BytesIO(data))
+        except UserError:
+            raise
         except Exception as error:  # the mcap readers raise their own error types for a damaged file
             raise UserError(f"{self.files.root / relative}: not a readable MCAP bag ({error.__class__.__name__}: {error})") from None
 

@@ -22,7 +22,7 @@ class Mcap(DatasetFormat):
         return ros2_bag.McapClipStream(root, clip, sensors)
 
     def reader(self, files, manifest):
-        return ros2_bag.BagReader(files, manifest.sensors)
+        return ros2_bag.BagReader(files, manifest)
 
     def clip_files(self, entry: ClipEntry) -> set[str]:
         return {ros2_bag.bag_path(entry.clip)}

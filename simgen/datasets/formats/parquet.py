@@ -10,6 +10,7 @@ import numpy as np
 import pyarrow as pa
 
 from simgen.datasets.formats.base import Carries, DatasetFormat, Locate
+from simgen.datasets.limits import max_points_per_frame
 from simgen.datasets.manifest import ClipEntry, Manifest
 from simgen.datasets.markdown import table
 from simgen.datasets.parquet import (
@@ -49,7 +50,7 @@ class Parquet(DatasetFormat):
         return ParquetClipStream(root, clip)
 
     def reader(self, files, manifest):
-        return ParquetReader(files)
+        return ParquetReader(files, max_points_per_frame(manifest.sensors))
 
     def clip_files(self, entry: ClipEntry) -> set[str]:
         return {table_path(name, entry.clip) for name in CLIP_TABLES}
