@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from simgen.atomic import check_new
 from simgen.commands.arguments import add_command, add_dataset_argument, frame_range
 from simgen.errors import UserError
 
@@ -29,7 +30,8 @@ def register(subparsers) -> None:
     add_dataset_argument(parser)
     parser.add_argument("--format", choices=EXPORT_FORMATS, default="mcap", help="output format (default mcap)")
     parser.add_argument(
-        "-o", "--output", type=Path, required=True, metavar="FILE", help="bag file to write, e.g. clip.mcap"
+        "-o", "--output", type=Path, required=True, metavar="DIR",
+        help="bag directory to create, as `ros2 bag record -o DIR` does: DIR/<name>.mcap and rosbag2's metadata.yaml",
     )
     parser.add_argument("--clip", help="clip id (default: the first clip)")
     parser.add_argument("--frames", default=":", metavar="A:B", help="frames A to B-1 (Python slice; default all)")
@@ -48,10 +50,9 @@ def run(args) -> int:
 
     from simgen.datasets import open_dataset
     from simgen.datasets.formats import formats_where
-    from simgen.datasets.ros2_bag import ALL_POINTS_TOPIC, LAYOUTS, XYZI_LAYOUT, write_bag
+    from simgen.datasets.ros2_bag import ALL_POINTS_TOPIC, LAYOUTS, XYZI_LAYOUT, bag_name, write_bag
 
-    if args.output.is_dir():
-        raise UserError(f"{args.output}: is a directory, expected a file name")
+    check_new(args.output)
     dataset = open_dataset(args.dataset)
     clip = args.clip if args.clip is not None else dataset.clips[0]
     frames = frame_range(args.frames, dataset.num_frames(clip))
@@ -69,6 +70,6 @@ def run(args) -> int:
     summary = write_bag(args.output, (dataset.frame(clip, i) for i in progress), list(dataset.manifest.sensors), layout)
     print(
         f"{args.output}: {summary.frames} frames of {clip}, {summary.messages} messages (ROS 2, MCAP, {layout.name} "
-        f"points)"
+        f"points), in {bag_name(args.output)}.mcap and metadata.yaml"
     )
     return 0

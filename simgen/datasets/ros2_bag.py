@@ -1,7 +1,9 @@
-"""A clip as a ROS 2 bag in MCAP (`mcap` + `mcap-ros2-support`, no ROS install), as Livox users record theirs.
+"""A clip as a ROS 2 bag in MCAP (no ROS install), as Livox users record theirs.
 
-The mcap, mcap-ros2-support and rosbags packages are imported only by the functions that write or read a
-bag, so that reading a dataset of another format (or training on one) does not need them.
+A bag is a rosbag2 directory: `<name>/<name>.mcap` beside the `metadata.yaml` that `ros2 bag info` reads,
+written with rosbags' public `Writer` and its typestore's `serialize_cdr`, and read with `mcap` and
+mcap-ros2-support's decoder. These packages are imported only by the functions that write or read a bag, so
+that reading a dataset of another format (or training on one) does not need them.
 
 Topics (CDR-encoded, ROS 2 Humble message definitions), each channel with rosbag2's
 `offered_qos_profiles` metadata (`QOS_PROFILES`), which `ros2 bag play` offers again:
@@ -41,7 +43,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from simgen import __version__
-from simgen.atomic import atomic_path
+from simgen.atomic import atomic_directory
+from simgen.datasets import livox_msgs
 from simgen.datasets.frame import Frame, class_names
 from simgen.datasets.records import FileRecord, record_file
 from simgen.datasets.verify import DatasetFiles
@@ -110,19 +113,18 @@ SCHEMAS = ("sensor_msgs/msg/PointCloud2", "visualization_msgs/msg/MarkerArray", 
 #: StaticTransformBroadcaster (transient local, keep last 1), so that RViz and tf2, which subscribe to
 #: /tf_static transient local, get them from `ros2 bag play`.
 QOS_PROFILES = {"points": (64, "VOLATILE"), BOXES_TOPIC: (10, "VOLATILE"), TF_STATIC_TOPIC: (1, "TRANSIENT_LOCAL")}
+#: rosbag2's bag format version: 8 writes the QoS profiles with integer enums, which every rosbag2 reads.
+BAG_VERSION = 8
 
 
-def offered_qos_profiles(topic: str) -> str:
-    """The channel metadata value rosbag2 writes for `topic`: its publishers' profiles as YAML (the
-    integer enums of rosbag2 before metadata version 9, which every later rosbag2 still reads)."""
+def offered_qos(topic: str):
+    """`topic`'s publisher profile as rosbags' `Qos`, which its writer stores in the channel and metadata.yaml."""
     from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
-    from rosbags.rosbag2.metadata import dump_qos_v8
 
     depth, durability = QOS_PROFILES.get(topic, QOS_PROFILES["points"])
     never = QosTime(0, 0)  # deadline, lifespan and lease 0: rmw's default, none
-    profile = Qos(QosHistory.KEEP_LAST, depth, QosReliability.RELIABLE, QosDurability[durability], never, never,
-                  QosLiveliness.AUTOMATIC, never, False)
-    return dump_qos_v8([profile])
+    return Qos(QosHistory.KEEP_LAST, depth, QosReliability.RELIABLE, QosDurability[durability], never, never,
+               QosLiveliness.AUTOMATIC, never, False)
 
 
 def points_topic(sensor_name: str) -> str:
@@ -133,16 +135,44 @@ def nanoseconds(seconds: float) -> int:
     return int(round(seconds * 1e9))
 
 
-def _stamp(ns: int) -> dict:
-    return {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}
+def _types():
+    """The message classes of rosbags' typestore, by ROS type name."""
+    return livox_msgs.typestore().types
 
 
-def _header(ns: int, frame_id: str = WORLD_FRAME) -> dict:
-    return {"stamp": _stamp(ns), "frame_id": frame_id}
+def _stamp(ns: int):
+    return _types()["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
 
-def _quaternion_xyzw(yaw_rad: float) -> dict:
-    return {"x": 0.0, "y": 0.0, "z": float(np.sin(yaw_rad / 2)), "w": float(np.cos(yaw_rad / 2))}
+def _header(ns: int, frame_id: str = WORLD_FRAME):
+    return _types()["std_msgs/msg/Header"](stamp=_stamp(ns), frame_id=frame_id)
+
+
+def _vector(x: float = 0.0, y: float = 0.0, z: float = 0.0, kind: str = "geometry_msgs/msg/Vector3"):
+    return _types()[kind](x=x, y=y, z=z)
+
+
+def _quaternion(x: float = 0.0, y: float = 0.0, z: float = 0.0, w: float = 1.0):
+    return _types()["geometry_msgs/msg/Quaternion"](x=x, y=y, z=z, w=w)
+
+
+def _pose(x: float = 0.0, y: float = 0.0, z: float = 0.0, yaw_rad: float = 0.0):
+    position = _vector(x, y, z, "geometry_msgs/msg/Point")
+    return _types()["geometry_msgs/msg/Pose"](position=position, orientation=_quaternion(z=float(np.sin(yaw_rad / 2)), w=float(np.cos(yaw_rad / 2))))
+
+
+def _marker(header, ns: str, id: int, type: int, action: int, pose=None, scale=None, color=(0.0, 0.0, 0.0, 0.0), text: str = ""):
+    """A `visualization_msgs/Marker`; what is not given is ROS's default (zeros, empty)."""
+    types = _types()
+    no_bytes = np.zeros(0, np.uint8)
+    return types["visualization_msgs/msg/Marker"](
+        header=header, ns=ns, id=id, type=type, action=action, pose=pose or _pose(), scale=scale or _vector(),
+        color=types["std_msgs/msg/ColorRGBA"](*color), lifetime=types["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
+        frame_locked=False, points=[], colors=[], texture_resource="",
+        texture=types["sensor_msgs/msg/CompressedImage"](header=_header(0, ""), format="", data=no_bytes),
+        uv_coordinates=[], text=text, mesh_resource="", mesh_file=types["visualization_msgs/msg/MeshFile"](filename="", data=no_bytes),
+        mesh_use_embedded_materials=False,
+    )
 
 
 def sensor_quaternion(sensor: Sensor) -> NDArray[np.float64]:
@@ -172,95 +202,79 @@ def cloud_points(frame: Frame, mask: NDArray[np.bool_] | slice, stamp_ns: int, l
     return out
 
 
-def cloud_message(points: NDArray, stamp_ns: int, layout: PointLayout = SIMGEN_LAYOUT, frame_id: str = WORLD_FRAME) -> dict:
-    return {
-        "header": _header(stamp_ns, frame_id),
-        "height": 1,
-        "width": len(points),
-        "fields": [{"name": name, "offset": offset, "datatype": kind, "count": 1} for name, offset, kind, _ in layout.point_fields],
-        "is_bigendian": False,
-        "point_step": layout.step,
-        "row_step": layout.step * len(points),
-        "data": points.tobytes(),
-        "is_dense": True,
-    }
+def cloud_message(points: NDArray, stamp_ns: int, layout: PointLayout = SIMGEN_LAYOUT, frame_id: str = WORLD_FRAME):
+    """A `sensor_msgs/PointCloud2` of `points` (a structured array of `layout`)."""
+    types = _types()
+    return types["sensor_msgs/msg/PointCloud2"](
+        header=_header(stamp_ns, frame_id), height=1, width=len(points),
+        fields=[types["sensor_msgs/msg/PointField"](name=name, offset=offset, datatype=kind, count=1)
+                for name, offset, kind, _ in layout.point_fields],
+        is_bigendian=False, point_step=layout.step, row_step=layout.step * len(points),
+        data=np.frombuffer(points.tobytes(), np.uint8), is_dense=True,
+    )
 
 
-def markers_message(frame: Frame, stamp_ns: int) -> dict:
+def markers_message(frame: Frame, stamp_ns: int):
     """DELETEALL, then a CUBE and a track-id TEXT per box, and a `placed` TEXT per box with a discontinuity."""
     header = _header(stamp_ns)
-    markers = [{"header": header, "ns": "boxes", "id": 0, "type": 0, "action": 3, "pose": {"orientation": {"w": 1.0}}}]
+    markers = [_marker(header, "boxes", 0, 0, 3)]
     names = frame.class_name
     ids = frame.track_id if frame.track_id is not None else np.arange(len(frame.boxes))
     placed = frame.discontinuity if frame.discontinuity is not None else np.zeros(len(frame.boxes), bool)
     for box, name, track, jumped in zip(np.asarray(frame.boxes, np.float64), names, ids, placed):
         x, y, z, length, width, height, yaw = box.tolist()
         r, g, b, a = BOX_COLOURS.get(str(name), PLAYER_COLOUR)
-        common = {"header": header, "id": int(track), "action": 0, "frame_locked": False}
-        markers.append({
-            **common, "ns": "boxes", "type": 1, "text": str(name),
-            "pose": {"position": {"x": x, "y": y, "z": z}, "orientation": _quaternion_xyzw(yaw)},
-            "scale": {"x": length, "y": width, "z": height}, "color": {"r": r, "g": g, "b": b, "a": a},
-        })
-        markers.append({
-            **common, "ns": "track_ids", "type": 9, "text": str(int(track)),
-            "pose": {"position": {"x": x, "y": y, "z": z + height / 2 + TEXT_HEIGHT_M}, "orientation": {"w": 1.0}},
-            "scale": {"z": TEXT_HEIGHT_M}, "color": {"r": r, "g": g, "b": b, "a": 1.0},
-        })
+        markers.append(_marker(header, "boxes", int(track), 1, 0, _pose(x, y, z, yaw), _vector(length, width, height),
+                               (r, g, b, a), str(name)))
+        markers.append(_marker(header, "track_ids", int(track), 9, 0, _pose(x, y, z + height / 2 + TEXT_HEIGHT_M),
+                               _vector(z=TEXT_HEIGHT_M), (r, g, b, 1.0), str(int(track))))
         if jumped:
-            markers.append({
-                **common, "ns": DISCONTINUITY_NAMESPACE, "type": 9, "text": "placed",
-                "pose": {"position": {"x": x, "y": y, "z": z + height / 2 + 2.5 * TEXT_HEIGHT_M}, "orientation": {"w": 1.0}},
-                "scale": {"z": TEXT_HEIGHT_M}, "color": {"r": 1.0, "g": 0.3, "b": 0.3, "a": 1.0},
-            })
-    return {"markers": markers}
+            markers.append(_marker(header, DISCONTINUITY_NAMESPACE, int(track), 9, 0,
+                                   _pose(x, y, z + height / 2 + 2.5 * TEXT_HEIGHT_M), _vector(z=TEXT_HEIGHT_M),
+                                   (1.0, 0.3, 0.3, 1.0), "placed"))
+    return _types()["visualization_msgs/msg/MarkerArray"](markers=markers)
 
 
-def tf_static_message(sensors: Sequence[Sensor], stamp_ns: int) -> dict:
+def tf_static_message(sensors: Sequence[Sensor], stamp_ns: int):
+    """`pitch` -> each sensor's frame, its pose."""
+    types = _types()
     transforms = []
     for sensor in sensors:
         qx, qy, qz, qw = sensor_quaternion(sensor).tolist()
         x, y, z = (float(v) for v in sensor.pose[:3])
-        transforms.append({
-            "header": _header(stamp_ns), "child_frame_id": sensor.name,
-            "transform": {"translation": {"x": x, "y": y, "z": z}, "rotation": {"x": qx, "y": qy, "z": qz, "w": qw}},
-        })
-    return {"transforms": transforms}
+        transform = types["geometry_msgs/msg/Transform"](translation=_vector(x, y, z), rotation=_quaternion(qx, qy, qz, qw))
+        transforms.append(types["geometry_msgs/msg/TransformStamped"](
+            header=_header(stamp_ns), child_frame_id=sensor.name, transform=transform))
+    return types["tf2_msgs/msg/TFMessage"](transforms=transforms)
 
 
 class BagWriter:
-    """A ROS 2 MCAP bag written frame by frame: `add(frame)` for each, then `finish()`.
+    """A ROS 2 bag, MCAP storage, written frame by frame with rosbags' `Writer`: `add(frame)` for each, then
+    `finish()` (or `abort()`).
 
-    `sensors`: the dataset's (`Sensor`: name, pose, ...); `layout` the points'
-    PointCloud2 layout (XYZI_LAYOUT puts every point on one topic, for frames that keep no sensor per point).
-    Every frame needs its `time_s` and `label_time_s`.
+    `path`: the bag directory to create, which gets `<its name>.mcap` and rosbag2's `metadata.yaml`;
+    `sensors`: the dataset's (`Sensor`: name, pose, ...); `layout` the points' PointCloud2 layout (XYZI_LAYOUT puts
+    every point on one topic, for frames that keep no sensor per point). Every frame needs its `time_s` and
+    `label_time_s`.
     """
 
-    def __init__(self, stream: BinaryIO, sensors: Sequence[Sensor], layout: PointLayout = SIMGEN_LAYOUT):
-        from mcap.well_known import SchemaEncoding
-        from mcap.writer import Writer
-        from mcap_ros2._dynamic import serialize_dynamic  # mcap-ros2-support's CDR encoder (its Writer cannot give channels metadata)
-        from rosbags.typesys import Stores, get_typestore
+    def __init__(self, path: Path, sensors: Sequence[Sensor], layout: PointLayout = SIMGEN_LAYOUT):
+        from rosbags.rosbag2 import StoragePlugin, Writer
 
-        typestore = get_typestore(Stores.ROS2_HUMBLE)
-        self.writer = Writer(stream)
-        self.writer.start(profile="ros2", library=f"simgen {__version__}")
-        self.schemas, self.encoders, self.channels = {}, {}, {}
-        for name in SCHEMAS:
-            text = typestore.generate_msgdef(name, ros_version=2)[0]
-            self.schemas[name] = self.writer.register_schema(name, SchemaEncoding.ROS2, text.encode())
-            self.encoders[name] = serialize_dynamic(name, text)[name]
+        self.store = livox_msgs.typestore()
+        self.bag = Writer(path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+        self.bag.set_custom_data("writer", f"simgen {__version__}")
+        self.bag.open()
+        self.connections = {}
         self.sensors = sorted(sensors, key=lambda s: s.sensor_id)
         self.layout = layout
         self.messages = 0
 
-    def _write(self, topic: str, schema: str, message: dict, stamp_ns: int) -> None:
-        if topic not in self.channels:
-            self.channels[topic] = self.writer.register_channel(
-                topic, "cdr", self.schemas[schema], {"offered_qos_profiles": offered_qos_profiles(topic)}
-            )
-        data = self.encoders[schema](message)
-        self.writer.add_message(self.channels[topic], log_time=stamp_ns, data=data, publish_time=stamp_ns, sequence=self.messages)
+    def _write(self, topic: str, msgtype: str, message, stamp_ns: int) -> None:
+        if topic not in self.connections:
+            self.connections[topic] = self.bag.add_connection(
+                topic, msgtype, typestore=self.store, offered_qos_profiles=[offered_qos(topic)])
+        self.bag.write(self.connections[topic], stamp_ns, self.store.serialize_cdr(message, msgtype))
         self.messages += 1
 
     def _write_tf_static(self, stamp_ns: int) -> None:
@@ -283,9 +297,13 @@ class BagWriter:
         self._write(BOXES_TOPIC, SCHEMAS[1], markers_message(frame, label_ns), label_ns)
 
     def finish(self) -> None:
+        """Close the MCAP and write `metadata.yaml`."""
         if not self.messages:
             self._write_tf_static(0)
-        self.writer.finish()
+        self.bag.close()
+
+    def abort(self) -> None:
+        self.bag.abort()
 
 
 def labelled_to_frame(frame: LabelledFrame) -> Frame:
@@ -305,14 +323,24 @@ class BagSummary:
     frames: int
 
 
+def bag_name(path: Path) -> str:
+    """The name of the MCAP in the bag directory `path`: the directory's, less a `.mcap` suffix."""
+    return path.name.removesuffix(".mcap") or path.name
+
+
 def write_bag(path: Path, frames: Iterable[Frame], sensors: Sequence[Sensor], layout: PointLayout = SIMGEN_LAYOUT) -> BagSummary:
-    """Write `frames` (an iterable of `Frame`, consumed one at a time) to `path` atomically."""
+    """Write `frames` (an iterable of `Frame`, consumed one at a time) as the new bag directory `path`
+    (`<bag_name>.mcap` and `metadata.yaml`), atomically."""
     count = 0
-    with atomic_path(path) as tmp, tmp.open("wb") as stream:
-        bag = BagWriter(stream, sensors, layout)
-        for frame in frames:
-            bag.add(frame)
-            count += 1
+    with atomic_directory(path, bag_name(path)) as tmp:
+        bag = BagWriter(tmp, sensors, layout)
+        try:
+            for frame in frames:
+                bag.add(frame)
+                count += 1
+        except BaseException:
+            bag.abort()
+            raise
         bag.finish()
     return BagSummary(bag.messages, count)
 
@@ -323,31 +351,37 @@ def bag_messages(frames: int, sensors: int) -> int:
 
 
 def bag_path(clip: str) -> str:
-    return f"{clip}.mcap"
+    """A clip's MCAP in an `mcap` dataset: in its bag directory `<clip>/`, beside `metadata.yaml`."""
+    return f"{clip}/{clip}.mcap"
+
+
+def bag_metadata_path(clip: str) -> str:
+    return f"{clip}/metadata.yaml"
 
 
 class McapClipStream:
-    """One clip's bag, `<clip>.mcap`, written as its frames come (the dataset writer's stream for
-    format mcap); its record's rows are its messages. `abort` leaves no file under the final name."""
+    """One clip's bag directory, `<clip>/` with `<clip>.mcap` and `metadata.yaml`, written as its frames come (the
+    dataset writer's stream for format mcap); the records' rows are its messages. `abort` leaves nothing under
+    the final name."""
 
     def __init__(self, root: Path, clip: str, sensors: Sequence[Sensor]):
-        self.root, self.relative = Path(root), bag_path(clip)
-        path = self.root / self.relative
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self._files = contextlib.ExitStack()
-        stream = self._files.enter_context(self._files.enter_context(atomic_path(path)).open("wb"))
-        self._bag = BagWriter(stream, sensors)
+        self.root, self.clip = Path(root), clip
+        self.root.mkdir(parents=True, exist_ok=True)
+        self._directory = contextlib.ExitStack()
+        self._bag = BagWriter(self._directory.enter_context(atomic_directory(self.root / clip, clip, replace=True)), sensors)
 
     def add(self, frame: LabelledFrame) -> None:
         self._bag.add(labelled_to_frame(frame))
 
     def close(self) -> list[FileRecord]:
         self._bag.finish()
-        self._files.close()
-        return [record_file(self.root, self.relative, self._bag.messages)]
+        self._directory.close()
+        return [record_file(self.root, relative, self._bag.messages)
+                for relative in (bag_path(self.clip), bag_metadata_path(self.clip))]
 
     def abort(self) -> None:
-        self._files.__exit__(RuntimeError, RuntimeError("aborted"), None)
+        self._bag.abort()
+        self._directory.__exit__(RuntimeError, RuntimeError("aborted"), None)
 
 
 def read_bag(stream: BinaryIO) -> dict[str, list]:
@@ -426,8 +460,9 @@ def card_lines() -> list[str]:
     rows = [f"| `{name}` | {offset} | {DATATYPE_NAMES[kind]} | {text} |" for (name, offset, kind, _), text in zip(POINT_FIELDS, meaning)]
     qos = {topic: durability.lower() for topic, (_, durability) in QOS_PROFILES.items()}
     return [
-        "A ROS 2 bag in MCAP per clip, `<clip id>.mcap` (CDR, ROS 2 Humble message definitions in the file; open it",
-        "with Foxglove, `ros2 bag play`, `rosbags` or the `mcap` Python package). Stamps are game time, not the epoch:",
+        "A ROS 2 bag per clip, the rosbag2 directory `<clip id>/`: `<clip id>.mcap` (CDR, ROS 2 Humble message",
+        "definitions in the file) and `metadata.yaml`. Open the directory with `ros2 bag info`, `ros2 bag play` or",
+        "`rosbags`, the `.mcap` with Foxglove or the `mcap` Python package. Stamps are game time, not the epoch:",
         "a cloud's header stamp is its frame's sweep start, the boxes' the label time (the middle of the sweep).",
         "",
         f"- `{points_topic('<sensor name>')}`: `sensor_msgs/msg/PointCloud2` per sensor and frame (empty ones too),",
