@@ -77,13 +77,16 @@ POINT_FIELDS = (
 
 @dataclass(frozen=True)
 class PointLayout:
-    """A PointCloud2 point: the first `fields` of POINT_FIELDS, packed into `step` bytes."""
+    """A PointCloud2 point: the first `fields` of POINT_FIELDS, packed into `step` bytes; or, with `custom`, Livox's
+    `CustomMsg` of that driver package (`livox_msgs`), its points taken from all of POINT_FIELDS."""
 
     name: str
     fields: int
     step: int
     per_sensor: bool  # a topic per sensor (else one, ALL_POINTS_TOPIC)
     sensor_frame: bool  # points in the sensor's frame (else the pitch frame)
+    per_unit: bool = False  # a message per lidar unit (a head: the Mid-100 has three), stamped at its first point
+    custom: str | None = None  # the Livox driver package whose CustomMsg carries the points (else PointCloud2)
 
     @property
     def point_fields(self) -> tuple[tuple[str, int, int, str], ...]:
@@ -95,11 +98,94 @@ class PointLayout:
         return np.dtype({"names": [f[0] for f in fields], "formats": [f[3] for f in fields],
                          "offsets": [f[1] for f in fields], "itemsize": self.step})
 
+    @property
+    def msgtype(self) -> str:
+        return livox_msgs.custom_msg_type(self.custom) if self.custom else SCHEMAS[0]
+
 
 SIMGEN_LAYOUT = PointLayout("simgen", 9, 34, per_sensor=True, sensor_frame=False)
 LIVOX_LAYOUT = PointLayout("livox", 7, 26, per_sensor=True, sensor_frame=True)  # livox_ros_driver2's LivoxPointXyzrtlt
 XYZI_LAYOUT = PointLayout("xyzi", 4, 16, per_sensor=False, sensor_frame=False)
-LAYOUTS = {layout.name: layout for layout in (SIMGEN_LAYOUT, LIVOX_LAYOUT, XYZI_LAYOUT)}
+#: livox_ros_driver2's CustomMsg; livox_ros_driver's (v1) 18-byte PointCloud2 (LivoxPointXyzrtl) and its CustomMsg.
+LIVOX_CUSTOM_LAYOUT = PointLayout("livox-custom", 9, 34, True, True, per_unit=True, custom=livox_msgs.DRIVER2)
+LIVOX_V1_LAYOUT = PointLayout("livox-v1", 6, 18, True, True, per_unit=True)
+LIVOX_V1_CUSTOM_LAYOUT = PointLayout("livox-v1-custom", 9, 34, True, True, per_unit=True, custom=livox_msgs.DRIVER1)
+LAYOUTS = {layout.name: layout for layout in (SIMGEN_LAYOUT, LIVOX_LAYOUT, XYZI_LAYOUT, LIVOX_CUSTOM_LAYOUT,
+                                              LIVOX_V1_LAYOUT, LIVOX_V1_CUSTOM_LAYOUT)}
+#: `--topic` and `--frame-id` templates' fields: the sensor's name, the unit (head) in it, the unit's lidar_id.
+NAME_FIELDS = ("sensor", "unit", "lidar_id")
+UNIT_TOPIC = "/simgen/{sensor}/lidar_{unit}"  # per-unit layouts' default topic
+
+
+@dataclass(frozen=True)
+class LidarUnit:
+    """A lidar unit: a head of a sensor. `lidar_id` numbers the units of all sensors, in sensor id then head
+    order, as a Livox driver numbers the lidars it connects (its handles) when its config lists them so."""
+
+    sensor: Sensor
+    head: int
+    lidar_id: int
+
+
+def lidar_units(sensors: Sequence[Sensor]) -> list[LidarUnit]:
+    ordered = sorted(sensors, key=lambda s: s.sensor_id)
+    units = [(sensor, head) for sensor in ordered for head in range(len(sensor.heads))]
+    if len(units) > 256:
+        raise UserError(f"{len(units)} lidar units: a Livox CustomMsg's lidar_id (uint8) numbers at most 256")
+    return [LidarUnit(sensor, head, index) for index, (sensor, head) in enumerate(units)]
+
+
+def sensor_units(sensors: Sequence[Sensor]) -> list[LidarUnit]:
+    """A unit per sensor, for the layouts with a message per sensor (head 0, lidar_id its sensor id)."""
+    return [LidarUnit(sensor, 0, sensor.sensor_id) for sensor in sorted(sensors, key=lambda s: s.sensor_id)]
+
+
+@dataclass(frozen=True)
+class Naming:
+    """Topic and frame names of the points, as templates of NAME_FIELDS (None: the layout's default)."""
+
+    topic: str | None = None
+    frame_id: str | None = None
+
+    def topic_of(self, layout: PointLayout, unit: LidarUnit) -> str:
+        default = UNIT_TOPIC if layout.per_unit else points_topic("{sensor}")
+        return _fill(self.topic or default, "--topic", unit)
+
+    def frame_of(self, layout: PointLayout, unit: LidarUnit) -> str:
+        if not layout.sensor_frame:
+            return WORLD_FRAME
+        return _fill(self.frame_id or "{sensor}", "--frame-id", unit)
+
+
+def _fill(template: str, option: str, unit: LidarUnit) -> str:
+    try:
+        return template.format(sensor=unit.sensor.name, unit=unit.head, lidar_id=unit.lidar_id)
+    except (KeyError, IndexError, ValueError) as error:
+        fields = ", ".join(f"{{{f}}}" for f in NAME_FIELDS)
+        raise UserError(f"{option} {template!r}: not a name template ({error}); its fields are {fields}") from None
+
+
+def check_naming(naming: Naming, layout: PointLayout, sensors: Sequence[Sensor]) -> None:
+    """Refuse names the layout cannot take: a frame for pitch-frame points, topics shared by units of PointCloud2s
+    that could not tell them apart (Livox's CustomMsg can: its lidar_id), one frame for sensors at different poses."""
+    if naming.frame_id is not None and not layout.sensor_frame:
+        raise UserError(f"--frame-id: the {layout.name} layout's points are in the {WORLD_FRAME} frame")
+    if naming.topic is not None and not layout.per_sensor:
+        raise UserError(f"--topic: the {layout.name} layout has one points topic, {ALL_POINTS_TOPIC}")
+    if not layout.per_sensor:
+        return
+    units = lidar_units(sensors) if layout.per_unit else sensor_units(sensors)
+    topics = [naming.topic_of(layout, u) for u in units]
+    if not layout.custom and len(set(topics)) < len(topics):
+        raise UserError(f"--topic {naming.topic!r} gives units the same topic; the {layout.name} layout's points carry "
+                        "no lidar id: add {unit} or {lidar_id}, or use a CustomMsg layout")
+    frames: dict[str, int] = {}
+    for unit in units if layout.sensor_frame else []:
+        frame = naming.frame_of(layout, unit)
+        if frames.setdefault(frame, unit.sensor.sensor_id) != unit.sensor.sensor_id:
+            raise UserError(f"--frame-id {naming.frame_id!r} names two sensors' frames {frame!r}; add {{sensor}}")
+
+
 BOX_COLOURS = {OFFICIAL_CLASS: (1.0, 0.9, 0.0, 0.6)}  # RGBA; players white
 PLAYER_COLOUR = (1.0, 1.0, 1.0, 0.6)
 TEXT_HEIGHT_M = 0.5
@@ -132,7 +218,7 @@ def points_topic(sensor_name: str) -> str:
 
 
 def nanoseconds(seconds: float) -> int:
-    return int(round(seconds * 1e9))
+    return round(seconds * 1e9)
 
 
 def _types():
@@ -158,19 +244,23 @@ def _quaternion(x: float = 0.0, y: float = 0.0, z: float = 0.0, w: float = 1.0):
 
 def _pose(x: float = 0.0, y: float = 0.0, z: float = 0.0, yaw_rad: float = 0.0):
     position = _vector(x, y, z, "geometry_msgs/msg/Point")
-    return _types()["geometry_msgs/msg/Pose"](position=position, orientation=_quaternion(z=float(np.sin(yaw_rad / 2)), w=float(np.cos(yaw_rad / 2))))
+    orientation = _quaternion(z=float(np.sin(yaw_rad / 2)), w=float(np.cos(yaw_rad / 2)))
+    return _types()["geometry_msgs/msg/Pose"](position=position, orientation=orientation)
 
 
-def _marker(header, ns: str, id: int, type: int, action: int, pose=None, scale=None, color=(0.0, 0.0, 0.0, 0.0), text: str = ""):
+def _marker(header, ns: str, id: int, type: int, action: int, pose=None, scale=None, color=(0.0, 0.0, 0.0, 0.0),
+            text: str = ""):
     """A `visualization_msgs/Marker`; what is not given is ROS's default (zeros, empty)."""
     types = _types()
     no_bytes = np.zeros(0, np.uint8)
     return types["visualization_msgs/msg/Marker"](
         header=header, ns=ns, id=id, type=type, action=action, pose=pose or _pose(), scale=scale or _vector(),
-        color=types["std_msgs/msg/ColorRGBA"](*color), lifetime=types["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
+        color=types["std_msgs/msg/ColorRGBA"](*color),
+        lifetime=types["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
         frame_locked=False, points=[], colors=[], texture_resource="",
         texture=types["sensor_msgs/msg/CompressedImage"](header=_header(0, ""), format="", data=no_bytes),
-        uv_coordinates=[], text=text, mesh_resource="", mesh_file=types["visualization_msgs/msg/MeshFile"](filename="", data=no_bytes),
+        uv_coordinates=[], text=text, mesh_resource="",
+        mesh_file=types["visualization_msgs/msg/MeshFile"](filename="", data=no_bytes),
         mesh_use_embedded_materials=False,
     )
 
@@ -185,7 +275,7 @@ def sensor_quaternion(sensor: Sensor) -> NDArray[np.float64]:
 def cloud_points(frame: Frame, mask: NDArray[np.bool_] | slice, stamp_ns: int, layout: PointLayout = SIMGEN_LAYOUT,
                  sensor: Sensor | None = None) -> NDArray:
     """The frame's points (those of `mask`) as a structured array of `layout`; `sensor`: theirs, for a layout in
-    the sensor frame."""
+    the sensor frame. `tag` is 0: simgen fires one return per shot and makes no noise points."""
     points = np.asarray(frame.points_m, np.float32)[mask]
     if layout.sensor_frame:
         points = ((points.astype(np.float64) - sensor.origin_m) @ sensor.rotation).astype(np.float32)
@@ -194,12 +284,36 @@ def cloud_points(frame: Frame, mask: NDArray[np.bool_] | slice, stamp_ns: int, l
     out["intensity"] = np.asarray(frame.intensity)[mask]
     if layout.fields > 4:
         out["line"] = frame.line[mask] if frame.line is not None else 0
+    if layout.fields > 6:
         offset_ns = np.rint(frame.time_offset_s[mask].astype(np.float64) * 1e9)
         out["timestamp"] = stamp_ns + offset_ns
     if layout.fields > 7:
         out["offset_time"] = offset_ns
         out["instance_id"] = frame.instance_id[mask]
     return out
+
+
+def unit_points(frame: Frame, mask: NDArray[np.bool_], stamp_ns: int,
+                sensor: Sensor) -> tuple[NDArray, NDArray[np.int64]]:
+    """A lidar unit's points (those of `mask`): all of POINT_FIELDS in the sensor's frame, and each one's shot
+    time (ns)."""
+    points = cloud_points(frame, mask, stamp_ns, LIVOX_CUSTOM_LAYOUT, sensor)
+    return points, stamp_ns + points["offset_time"].astype(np.int64)
+
+
+def custom_message(package: str, points: NDArray, shot_ns: NDArray[np.int64], timebase: int, lidar_id: int,
+                   frame_id: str):
+    """Livox's `CustomMsg` (of driver `package`) of one unit's `points` (`unit_points`): header stamp `timebase`
+    (its first point's time), offset_time from it."""
+    types = _types()
+    point = types[f"{package}/msg/CustomPoint"]
+    columns = (shot_ns - timebase, *(points[name] for name in ("x", "y", "z", "intensity", "tag", "line")))
+    return types[livox_msgs.custom_msg_type(package)](
+        header=_header(timebase, frame_id), timebase=timebase, point_num=len(points), lidar_id=lidar_id,
+        rsvd=np.zeros(3, np.uint8),
+        points=[point(offset_time=o, x=x, y=y, z=z, reflectivity=int(r), tag=t, line=line)
+                for o, x, y, z, r, t, line in zip(*(c.tolist() for c in columns))],
+    )
 
 
 def cloud_message(points: NDArray, stamp_ns: int, layout: PointLayout = SIMGEN_LAYOUT, frame_id: str = WORLD_FRAME):
@@ -235,17 +349,25 @@ def markers_message(frame: Frame, stamp_ns: int):
     return _types()["visualization_msgs/msg/MarkerArray"](markers=markers)
 
 
-def tf_static_message(sensors: Sequence[Sensor], stamp_ns: int):
-    """`pitch` -> each sensor's frame, its pose."""
+def tf_static_message(frames: Sequence[tuple[str, Sensor]], stamp_ns: int):
+    """`pitch` -> each (frame name, sensor)'s frame: the sensor's pose."""
     types = _types()
     transforms = []
-    for sensor in sensors:
+    for name, sensor in frames:
         qx, qy, qz, qw = sensor_quaternion(sensor).tolist()
         x, y, z = (float(v) for v in sensor.pose[:3])
-        transform = types["geometry_msgs/msg/Transform"](translation=_vector(x, y, z), rotation=_quaternion(qx, qy, qz, qw))
+        rotation = _quaternion(qx, qy, qz, qw)
+        transform = types["geometry_msgs/msg/Transform"](translation=_vector(x, y, z), rotation=rotation)
         transforms.append(types["geometry_msgs/msg/TransformStamped"](
-            header=_header(stamp_ns), child_frame_id=sensor.name, transform=transform))
+            header=_header(stamp_ns), child_frame_id=name, transform=transform))
     return types["tf2_msgs/msg/TFMessage"](transforms=transforms)
+
+
+def check_heads(layout: PointLayout, sensors: Sequence[Sensor], frame: Frame) -> None:
+    """Refuse a per-unit layout for frames that keep no head per point where a sensor has several units."""
+    if layout.per_unit and frame.head is None and any(len(s.heads) > 1 for s in sensors):
+        raise UserError(f"--ros2-layout {layout.name}: the frames keep no head per point, which tells a sensor's "
+                        "lidar units apart (export a Parquet dataset)")
 
 
 class BagWriter:
@@ -253,21 +375,25 @@ class BagWriter:
     `finish()` (or `abort()`).
 
     `path`: the bag directory to create, which gets `<its name>.mcap` and rosbag2's `metadata.yaml`;
-    `sensors`: the dataset's (`Sensor`: name, pose, ...); `layout` the points' PointCloud2 layout (XYZI_LAYOUT puts
-    every point on one topic, for frames that keep no sensor per point). Every frame needs its `time_s` and
-    `label_time_s`.
+    `sensors`: the dataset's (`Sensor`: name, pose, ...); `layout` the points' layout (XYZI_LAYOUT puts every point
+    on one topic, for frames that keep no sensor per point; a per-unit layout a message per lidar unit, which needs
+    each point's head where a sensor has several); `naming` the points' topics and frames. Every frame needs its
+    `time_s` and `label_time_s`.
     """
 
-    def __init__(self, path: Path, sensors: Sequence[Sensor], layout: PointLayout = SIMGEN_LAYOUT):
+    def __init__(self, path: Path, sensors: Sequence[Sensor], layout: PointLayout = SIMGEN_LAYOUT,
+                 naming: Naming = Naming()):
         from rosbags.rosbag2 import StoragePlugin, Writer
 
+        check_naming(naming, layout, sensors)
+        self.sensors = sorted(sensors, key=lambda s: s.sensor_id)
+        self.layout, self.naming = layout, naming
+        self.units = lidar_units(self.sensors) if layout.per_unit else sensor_units(self.sensors)
         self.store = livox_msgs.typestore()
         self.bag = Writer(path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
         self.bag.set_custom_data("writer", f"simgen {__version__}")
         self.bag.open()
         self.connections = {}
-        self.sensors = sorted(sensors, key=lambda s: s.sensor_id)
-        self.layout = layout
         self.messages = 0
 
     def _write(self, topic: str, msgtype: str, message, stamp_ns: int) -> None:
@@ -278,23 +404,49 @@ class BagWriter:
         self.messages += 1
 
     def _write_tf_static(self, stamp_ns: int) -> None:
-        self._write(TF_STATIC_TOPIC, SCHEMAS[2], tf_static_message(self.sensors, stamp_ns), stamp_ns)
+        if self.layout.sensor_frame:
+            frames = {self.naming.frame_of(self.layout, u): u.sensor for u in self.units}
+        else:
+            frames = {s.name: s for s in self.sensors}
+        self._write(TF_STATIC_TOPIC, SCHEMAS[2], tf_static_message(list(frames.items()), stamp_ns), stamp_ns)
 
     def add(self, frame: Frame) -> None:
         stamp_ns = nanoseconds(frame.time_s)
         if not self.messages:  # the static transforms at the first frame's stamp: playback starts there
             self._write_tf_static(stamp_ns)
-        if self.layout.per_sensor:
+        layout = self.layout
+        if layout.per_unit:
+            self._add_units(frame, stamp_ns)
+        elif layout.per_sensor:
             sensor = np.asarray(frame.sensor)
-            for info in self.sensors:
-                frame_id = info.name if self.layout.sensor_frame else WORLD_FRAME
-                points = cloud_points(frame, sensor == info.sensor_id, stamp_ns, self.layout, info)
-                self._write(points_topic(info.name), SCHEMAS[0], cloud_message(points, stamp_ns, self.layout, frame_id), stamp_ns)
+            for unit in self.units:
+                points = cloud_points(frame, sensor == unit.sensor.sensor_id, stamp_ns, layout, unit.sensor)
+                message = cloud_message(points, stamp_ns, layout, self.naming.frame_of(layout, unit))
+                self._write(self.naming.topic_of(layout, unit), SCHEMAS[0], message, stamp_ns)
         else:
-            points = cloud_points(frame, slice(None), stamp_ns, self.layout)
-            self._write(ALL_POINTS_TOPIC, SCHEMAS[0], cloud_message(points, stamp_ns, self.layout), stamp_ns)
+            points = cloud_points(frame, slice(None), stamp_ns, layout)
+            self._write(ALL_POINTS_TOPIC, SCHEMAS[0], cloud_message(points, stamp_ns, layout), stamp_ns)
         label_ns = nanoseconds(frame.label_time_s)
         self._write(BOXES_TOPIC, SCHEMAS[1], markers_message(frame, label_ns), label_ns)
+
+    def _add_units(self, frame: Frame, stamp_ns: int) -> None:
+        """A message per lidar unit, stamped at its first point (the sweep start if it has none)."""
+        layout, sensor = self.layout, np.asarray(frame.sensor)
+        check_heads(layout, self.sensors, frame)
+        head = np.asarray(frame.head) if frame.head is not None else np.zeros(len(sensor), np.uint8)
+        for unit in self.units:
+            points, shot_ns = unit_points(frame, (sensor == unit.sensor.sensor_id) & (head == unit.head), stamp_ns,
+                                          unit.sensor)
+            timebase = int(shot_ns.min()) if len(points) else stamp_ns
+            frame_id = self.naming.frame_of(layout, unit)
+            if layout.custom:
+                message = custom_message(layout.custom, points, shot_ns, timebase, unit.lidar_id, frame_id)
+            else:
+                packed = np.zeros(len(points), layout.dtype)
+                for name in layout.dtype.names:
+                    packed[name] = points[name]
+                message = cloud_message(packed, timebase, layout, frame_id)
+            self._write(self.naming.topic_of(layout, unit), layout.msgtype, message, timebase)
 
     def finish(self) -> None:
         """Close the MCAP and write `metadata.yaml`."""
@@ -312,7 +464,8 @@ def labelled_to_frame(frame: LabelledFrame) -> Frame:
     return Frame(
         clip=frame.clip, index=frame.index, points_m=scan.points_m, intensity=scan.intensity, boxes=labels.boxes,
         class_name=class_names(labels.team), track_id=labels.track_id, time_s=frame.time_s,
-        label_time_s=frame.label_time_s, time_offset_s=scan.time_offset_s, sensor=scan.sensor, head=scan.head, line=scan.line,
+        label_time_s=frame.label_time_s, time_offset_s=scan.time_offset_s, sensor=scan.sensor, head=scan.head,
+        line=scan.line,
         instance_id=scan.instance_id, discontinuity=labels.discontinuity,
     )
 
@@ -328,12 +481,13 @@ def bag_name(path: Path) -> str:
     return path.name.removesuffix(".mcap") or path.name
 
 
-def write_bag(path: Path, frames: Iterable[Frame], sensors: Sequence[Sensor], layout: PointLayout = SIMGEN_LAYOUT) -> BagSummary:
+def write_bag(path: Path, frames: Iterable[Frame], sensors: Sequence[Sensor], layout: PointLayout = SIMGEN_LAYOUT,
+              naming: Naming = Naming()) -> BagSummary:
     """Write `frames` (an iterable of `Frame`, consumed one at a time) as the new bag directory `path`
     (`<bag_name>.mcap` and `metadata.yaml`), atomically."""
     count = 0
     with atomic_directory(path, bag_name(path)) as tmp:
-        bag = BagWriter(tmp, sensors, layout)
+        bag = BagWriter(tmp, sensors, layout, naming)
         try:
             for frame in frames:
                 bag.add(frame)
@@ -368,7 +522,8 @@ class McapClipStream:
         self.root, self.clip = Path(root), clip
         self.root.mkdir(parents=True, exist_ok=True)
         self._directory = contextlib.ExitStack()
-        self._bag = BagWriter(self._directory.enter_context(atomic_directory(self.root / clip, clip, replace=True)), sensors)
+        path = self._directory.enter_context(atomic_directory(self.root / clip, clip, replace=True))
+        self._bag = BagWriter(path, sensors)
 
     def add(self, frame: LabelledFrame) -> None:
         self._bag.add(labelled_to_frame(frame))
@@ -390,7 +545,8 @@ def read_bag(stream: BinaryIO) -> dict[str, list]:
     from mcap_ros2.decoder import DecoderFactory
 
     topics: dict[str, list] = {}
-    for _, channel, _, message in make_reader(stream, decoder_factories=[DecoderFactory()]).iter_decoded_messages(log_time_order=True):
+    reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+    for _, channel, _, message in reader.iter_decoded_messages(log_time_order=True):
         topics.setdefault(channel.topic, []).append(message)
     return topics
 
@@ -429,8 +585,9 @@ class BagReader:
         data = self.files.read(relative)
         try:
             return read_bag(io.BytesIO(data))
-        except Exception as error:  # the mcap readers raise their own error types for a damaged file
-            raise UserError(f"{self.files.root / relative}: not a readable MCAP bag ({error.__class__.__name__}: {error})") from None
+        except Exception as error:  # noqa: BLE001  the mcap readers raise their own error types for a damaged file
+            problem = f"{error.__class__.__name__}: {error}"
+            raise UserError(f"{self.files.root / relative}: not a readable MCAP bag ({problem})") from None
 
     def frame(self, clip: str, index: int) -> Frame:
         topics = self._clip(clip)
@@ -445,7 +602,8 @@ class BagReader:
         return Frame(
             clip=clip, index=index,
             points_m=np.ascontiguousarray(np.stack([points["x"], points["y"], points["z"]], axis=1)),
-            intensity=points["intensity"].astype(np.uint8), boxes=boxes, class_name=names, track_id=ids, discontinuity=placed,
+            intensity=points["intensity"].astype(np.uint8), boxes=boxes, class_name=names, track_id=ids,
+            discontinuity=placed,
             time_s=stamp_ns / 1e9, label_time_s=(label.sec * 1_000_000_000 + label.nanosec) / 1e9,
             time_offset_s=(points["offset_time"] / 1e9).astype(np.float32),
             sensor=np.concatenate([np.full(len(a), s, np.uint8) for s, a in arrays]) if arrays else None,
@@ -455,9 +613,11 @@ class BagReader:
 
 def card_lines() -> list[str]:
     """The dataset card's layout section for an `mcap` dataset."""
-    meaning = ["metres, pitch frame", "", "", "reflectivity 0-255", "0 (no return flags)", "laser of the head that fired",
-               "shot time, ns (header stamp + offset_time)", "ns since the header stamp", "track id, 1000 ball, -1 none"]
-    rows = [f"| `{name}` | {offset} | {DATATYPE_NAMES[kind]} | {text} |" for (name, offset, kind, _), text in zip(POINT_FIELDS, meaning)]
+    meaning = ["metres, pitch frame", "", "", "reflectivity 0-255", "0 (no return flags)",
+               "laser of the head that fired", "shot time, ns (header stamp + offset_time)",
+               "ns since the header stamp", "track id, 1000 ball, -1 none"]
+    rows = [f"| `{name}` | {offset} | {DATATYPE_NAMES[kind]} | {text} |"
+            for (name, offset, kind, _), text in zip(POINT_FIELDS, meaning)]
     qos = {topic: durability.lower() for topic, (_, durability) in QOS_PROFILES.items()}
     return [
         "A ROS 2 bag per clip, the rosbag2 directory `<clip id>/`: `<clip id>.mcap` (CDR, ROS 2 Humble message",
@@ -466,8 +626,10 @@ def card_lines() -> list[str]:
         "a cloud's header stamp is its frame's sweep start, the boxes' the label time (the middle of the sweep).",
         "",
         f"- `{points_topic('<sensor name>')}`: `sensor_msgs/msg/PointCloud2` per sensor and frame (empty ones too),",
-        f"  frame `{WORLD_FRAME}`, {SIMGEN_LAYOUT.step}-byte little-endian points; the first {LIVOX_LAYOUT.step} bytes are",
-        "  livox_ros_driver2's point (`LivoxPointXyzrtlt`), but in the pitch frame, not the sensor's; read the fields by",
+        f"  frame `{WORLD_FRAME}`, {SIMGEN_LAYOUT.step}-byte little-endian points; the first {LIVOX_LAYOUT.step} "
+        "bytes are",
+        "  livox_ros_driver2's point (`LivoxPointXyzrtlt`), but in the pitch frame, not the sensor's; read the fields "
+        "by",
         "  name. `simgen export --ros2-layout livox` writes the driver's exact 26-byte point in each sensor's frame.",
         "",
         "| field | offset | type | meaning |",
@@ -478,10 +640,13 @@ def card_lines() -> list[str]:
         "  humanoid a CUBE (namespace `boxes`, id = track id, `text` = class) and a TEXT_VIEW_FACING track id; a",
         "  humanoid the engine placed for a restart (`discontinuity`) also a TEXT_VIEW_FACING `placed` (namespace",
         f"  `{DISCONTINUITY_NAMESPACE}`, id = track id).",
-        f"- `{TF_STATIC_TOPIC}`: `tf2_msgs/msg/TFMessage` at the first frame's stamp, `{WORLD_FRAME}` -> each sensor's name (its pose).",
+        f"- `{TF_STATIC_TOPIC}`: `tf2_msgs/msg/TFMessage` at the first frame's stamp, `{WORLD_FRAME}` -> each "
+        "sensor's name (its pose).",
         "",
-        "Each channel carries rosbag2's `offered_qos_profiles` metadata, which `ros2 bag play` offers again: all reliable;",
+        "Each channel carries rosbag2's `offered_qos_profiles` metadata, which `ros2 bag play` offers again: all "
+        "reliable;",
         f"points {qos['points']} (keep last {QOS_PROFILES['points'][0]}, as livox_ros_driver2 publishes), boxes"
-        f" {qos[BOXES_TOPIC]}, `{TF_STATIC_TOPIC}` {qos[TF_STATIC_TOPIC].replace('_', ' ')} (keep last 1, as tf2's static",
+        f" {qos[BOXES_TOPIC]}, `{TF_STATIC_TOPIC}` {qos[TF_STATIC_TOPIC].replace('_', ' ')} (keep last 1, as tf2's "
+        "static",
         "broadcaster), so RViz and tf2 get the sensor poses whenever they subscribe.",
     ]
