@@ -47,6 +47,7 @@ from simgen.atomic import atomic_directory
 from simgen.datasets import livox_msgs
 from simgen.datasets.frame import Frame, class_names
 from simgen.datasets.records import FileRecord, record_file
+from simgen.datasets.units import LidarUnit, lidar_units
 from simgen.datasets.verify import DatasetFiles
 from simgen.errors import UserError
 from simgen.vocab import OFFICIAL_CLASS
@@ -115,24 +116,6 @@ LAYOUTS = {layout.name: layout for layout in (SIMGEN_LAYOUT, LIVOX_LAYOUT, XYZI_
 #: `--topic` and `--frame-id` templates' fields: the sensor's name, the unit (head) in it, the unit's lidar_id.
 NAME_FIELDS = ("sensor", "unit", "lidar_id")
 UNIT_TOPIC = "/simgen/{sensor}/lidar_{unit}"  # per-unit layouts' default topic
-
-
-@dataclass(frozen=True)
-class LidarUnit:
-    """A lidar unit: a head of a sensor. `lidar_id` numbers the units of all sensors, in sensor id then head
-    order, as a Livox driver numbers the lidars it connects (its handles) when its config lists them so."""
-
-    sensor: Sensor
-    head: int
-    lidar_id: int
-
-
-def lidar_units(sensors: Sequence[Sensor]) -> list[LidarUnit]:
-    ordered = sorted(sensors, key=lambda s: s.sensor_id)
-    units = [(sensor, head) for sensor in ordered for head in range(len(sensor.heads))]
-    if len(units) > 256:
-        raise UserError(f"{len(units)} lidar units: a Livox CustomMsg's lidar_id (uint8) numbers at most 256")
-    return [LidarUnit(sensor, head, index) for index, (sensor, head) in enumerate(units)]
 
 
 def sensor_units(sensors: Sequence[Sensor]) -> list[LidarUnit]:

@@ -15,15 +15,15 @@ from simgen.datasets.samples import IMAGE_SETS, INTENSITY_SCALE, MAX_FRAMES_PER_
 
 class OpenPCDet(DatasetFormat):
     name = "openpcdet"
-    carries = Carries(track_ids=False, point_fields=False, point_counts=False)
+    carries = Carries(track_ids=False, point_fields=False, point_counts=False, units=True)
     max_frames_per_clip = MAX_FRAMES_PER_CLIP
     frame_files = True
 
     def stream(self, root, clip, clip_index, sensors):
-        return openpcdet.OpenPCDetClipStream(root, clip_index)
+        return openpcdet.OpenPCDetClipStream(root, clip_index, sensors)
 
     def reader(self, files, manifest):
-        return openpcdet.OpenPCDetReader(files, {c.clip: c.clip_index for c in manifest.clips})
+        return openpcdet.OpenPCDetReader(files, {c.clip: c.clip_index for c in manifest.clips}, manifest.sensors)
 
     def clip_files(self, entry: ClipEntry) -> set[str]:
         paths = (openpcdet.points_path, openpcdet.labels_path)
@@ -39,7 +39,10 @@ class OpenPCDet(DatasetFormat):
         return [
             "OpenPCDet's custom format (`pcdet/datasets/custom`), no conversion needed:",
             "",
-            f"- `points/NNNNNN.npy`: float32 (N, 4) x, y, z (metres, pitch frame), intensity / {INTENSITY_SCALE:g} in [0, 1]",
+            f"- `points/NNNNNN.npy`: float32 (N, 5) x, y, z (metres, pitch frame), intensity / {INTENSITY_SCALE:g} in",
+            "  [0, 1], `lidar_unit`: the head that fired, numbered across the sensors in sensor then head order (the",
+            "  manifest's `sensors`; a Mid-100 has three). The dataset YAML lists it in `src_feature_list`, not in",
+            "  `used_feature_list`: OpenPCDet reads it and leaves it out of the model's input.",
             "- `labels/NNNNNN.txt`: `x y z dx dy dz heading name`, the box convention below (OpenPCDet's own)",
             "- `ImageSets/train.txt`, `val.txt`, `trainval.txt`: sample numbers, split by clip",
             "",
