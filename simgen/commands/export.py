@@ -8,7 +8,7 @@ from simgen.atomic import check_new
 from simgen.commands.arguments import add_command, add_dataset_argument, frame_range
 from simgen.errors import UserError
 
-EXPORT_FORMATS = ("mcap",)
+EXPORT_FORMATS = ("mcap", "las")
 ROS2_LAYOUTS = ("simgen", "livox", "livox-custom", "livox-v1", "livox-v1-custom")
 
 
@@ -32,10 +32,14 @@ def register(subparsers) -> None:
         "carry. Play it with `ros2 bag play DIR`, open the .mcap in Foxglove, or read it with rosbags or mcap.",
     )
     add_dataset_argument(parser)
-    parser.add_argument("--format", choices=EXPORT_FORMATS, default="mcap", help="output format (default mcap)")
+    parser.add_argument("--format", choices=EXPORT_FORMATS, default="mcap",
+                        help="mcap (default): a ROS 2 bag; las: the frames' points as one LAS 1.4 file (laspy), GPS "
+                        "time the shot's game time, classification the semantic class, point source id the lidar "
+                        "unit (a Parquet dataset's)")
     parser.add_argument(
         "-o", "--output", type=Path, required=True, metavar="DIR",
-        help="bag directory to create, as `ros2 bag record -o DIR` does: DIR/<name>.mcap and rosbag2's metadata.yaml",
+        help="bag directory to create, as `ros2 bag record -o DIR` does: DIR/<name>.mcap and rosbag2's metadata.yaml "
+        "(--format las: the .las file)",
     )
     parser.add_argument("--clip", help="clip id (default: the first clip)")
     parser.add_argument("--frames", default=":", metavar="A:B", help="frames A to B-1 (Python slice; default all)")
@@ -65,6 +69,8 @@ def run(args) -> int:
     dataset = open_dataset(args.dataset)
     clip = args.clip if args.clip is not None else dataset.clips[0]
     frames = frame_range(args.frames, dataset.num_frames(clip))
+    if args.format == "las":
+        return _las(args, dataset, clip, frames)
     layout = ros2_bag.LAYOUTS[args.ros2_layout]
     if not dataset.plugin.carries.point_fields:
         if layout.sensor_frame:
@@ -85,4 +91,23 @@ def run(args) -> int:
         f"{args.output}: {summary.frames} frames of {clip}, {summary.messages} messages (ROS 2, MCAP, {layout.name} "
         f"points), in {ros2_bag.bag_name(args.output)}.mcap and metadata.yaml"
     )
+    return 0
+
+
+def _las(args, dataset, clip: str, frames: range) -> int:
+    from tqdm import tqdm
+
+    from simgen.datasets.formats import formats_where
+    from simgen.datasets.las import write_las
+
+    if args.ros2_layout != "simgen" or args.topic is not None or args.frame_id is not None:
+        raise UserError("--ros2-layout, --topic and --frame-id are for --format mcap")
+    carries = dataset.plugin.carries
+    if not (carries.point_fields and carries.units):
+        per_point = formats_where(lambda f: f.carries.point_fields and f.carries.units)
+        raise UserError(f"--format las: a {dataset.format} dataset keeps no shot time, semantic class or head per "
+                        f"point (export a {' or '.join(per_point)} dataset)")
+    progress = tqdm(frames, unit="frame", desc=f"{clip} -> {args.output.name}", dynamic_ncols=True)
+    count, points = write_las(args.output, (dataset.frame(clip, i) for i in progress), dataset.manifest.sensors)
+    print(f"{args.output}: {count} frames of {clip}, {points:,} points (LAS 1.4, point format 6)")
     return 0
