@@ -10,7 +10,13 @@ from simgen.datasets import openpcdet, openpcdet_config
 from simgen.datasets.formats.base import Carries, DatasetFormat, Locate
 from simgen.datasets.manifest import ClipEntry, Manifest
 from simgen.datasets.records import ClipRecord, FileRecord
-from simgen.datasets.samples import IMAGE_SETS, INTENSITY_SCALE, MAX_FRAMES_PER_CLIP, write_image_sets
+from simgen.datasets.samples import (
+    IMAGE_SETS,
+    INTENSITY_SCALE,
+    MAX_FRAMES_PER_CLIP,
+    VAL_FRACTION,
+    write_image_sets,
+)
 
 
 class OpenPCDet(DatasetFormat):
@@ -44,7 +50,8 @@ class OpenPCDet(DatasetFormat):
             "  manifest's `sensors`; a Mid-100 has three). The dataset YAML lists it in `src_feature_list`, not in",
             "  `used_feature_list`: OpenPCDet reads it and leaves it out of the model's input.",
             "- `labels/NNNNNN.txt`: `x y z dx dy dz heading name`, the box convention below (OpenPCDet's own)",
-            "- `ImageSets/train.txt`, `val.txt`, `trainval.txt`: sample numbers, split by clip",
+            "- `ImageSets/train.txt`, `val.txt`, `trainval.txt`: sample numbers, split by clip (a dataset of one clip:",
+            f"  its last {VAL_FRACTION:.0%} of frames are `val`, so that OpenPCDet's evaluation has a sample)",
             "",
             f"NNNNNN = clip index x {MAX_FRAMES_PER_CLIP} + frame index. The `POINT_CLOUD_RANGE` must cover the pitch about",
             "its centre (the points are not centred on the sensor).",
