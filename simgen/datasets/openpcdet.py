@@ -34,12 +34,24 @@ if TYPE_CHECKING:
 COLUMNS = ("x", "y", "z", "intensity", "lidar_unit")  # of a points file; (P, 4) before the unit column
 
 
+POINTS_DIR = "points"
+
+
+def points_file(sample: str) -> str:
+    """A sample's points file in POINTS_DIR."""
+    return f"{sample}.npy"
+
+
 def points_path(clip_index: int, index: int) -> str:
-    return f"points/{sample_name(clip_index, index)}.npy"
+    return f"{POINTS_DIR}/{points_file(sample_name(clip_index, index))}"
+
+
+def sample_labels_path(sample: str) -> str:
+    return f"labels/{sample}.txt"
 
 
 def labels_path(clip_index: int, index: int) -> str:
-    return f"labels/{sample_name(clip_index, index)}.txt"
+    return sample_labels_path(sample_name(clip_index, index))
 
 
 def npy_bytes(array: np.ndarray) -> bytes:

@@ -73,13 +73,18 @@ def val_frames(frames: int) -> int:
     return max(1, round(VAL_FRACTION * frames)) if frames > 1 else 0
 
 
-def write_image_sets(root: Path, clips: Sequence[ClipRecord]) -> list[FileRecord]:
-    """IMAGE_SETS, train.txt, val.txt and trainval.txt: sample names, split by clip (one clip: by `val_frames`)."""
+def split_samples(clips: Sequence[ClipRecord]) -> dict[str, list[str]]:
+    """Sample names of the `train` and `val` splits: by clip (one clip: its last `val_frames` are val)."""
     val = val_clips([c.clip_index for c in clips])
     samples = [(c.clip_index in val, sample_name(c.clip_index, i)) for c in clips for i in range(c.frames)]
     if len(clips) == 1:
         first_val = clips[0].frames - val_frames(clips[0].frames)
         samples = [(i >= first_val, name) for i, (_, name) in enumerate(samples)]
-    names = {split: [name for in_val, name in samples if in_val == (split == "val")] for split in ("train", "val")}
+    return {split: [name for in_val, name in samples if in_val == (split == "val")] for split in ("train", "val")}
+
+
+def write_image_sets(root: Path, clips: Sequence[ClipRecord]) -> list[FileRecord]:
+    """IMAGE_SETS, train.txt, val.txt and trainval.txt: the sample names of `split_samples`."""
+    names = split_samples(clips)
     names["trainval"] = sorted(names["train"] + names["val"])
     return [write_text(root, f"ImageSets/{split}.txt", lines) for split, lines in names.items()]

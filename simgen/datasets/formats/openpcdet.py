@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from simgen.datasets import openpcdet, openpcdet_config
+from simgen.datasets import mmdet3d, openpcdet, openpcdet_config
 from simgen.datasets.formats.base import Carries, DatasetFormat, Locate
 from simgen.datasets.manifest import ClipEntry, Manifest
 from simgen.datasets.records import ClipRecord, FileRecord
@@ -36,10 +36,10 @@ class OpenPCDet(DatasetFormat):
         return {f(entry.clip_index, i) for i in range(entry.frames) for f in paths}
 
     def dataset_files(self, manifest: Manifest) -> set[str]:
-        return set(IMAGE_SETS)
+        return set(IMAGE_SETS) | {mmdet3d.info_path(split) for split in mmdet3d.SPLITS}
 
     def finish(self, root: Path, clips: Sequence[ClipRecord], sensors, scenario: Mapping) -> list[FileRecord]:
-        return write_image_sets(root, clips)
+        return write_image_sets(root, clips) + mmdet3d.write_infos(root, clips)
 
     def card_layout(self, manifest: Manifest) -> list[str]:
         return [
@@ -59,6 +59,10 @@ class OpenPCDet(DatasetFormat):
             "### OpenPCDet",
             "",
             *openpcdet_config.card_lines(),
+            "",
+            "### MMDetection3D",
+            "",
+            *mmdet3d.card_lines(),
         ]
 
     def locator(self, root: Path, entry: ClipEntry, first_row: dict[int, int]) -> Locate:
