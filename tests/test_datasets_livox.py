@@ -4,7 +4,6 @@ simgen's), a message per lidar unit, point by point against the Parquet dataset 
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -14,29 +13,15 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from scipy.spatial.transform import Rotation
 
 import simgen.datasets
-from scan_patterns import get_sensor
 from simgen.cli import main
-from simgen.scan.sensor import Sensor
-from tests.support.datasets import make_clip, sensors, write_dataset
+from tests.support.datasets import make_clip, mid40, sensors, with_mid40, write_dataset
 
 FIXTURES = Path(__file__).parent / "fixtures" / "livox_msgs"
-MID40 = Sensor(1, "mid40", "mid40-risley", (10.0, 36.0, 6.0, 0.0, -15.0, -90.0), get_sensor("mid40-risley").heads,
-               100_000.0, 10.0, 1, 1.0)
-SENSORS = [*sensors(), MID40]  # a Mid-100 (three units) and a Mid-40
+SENSORS = [*sensors(), mid40()]  # a Mid-100 (three units) and a Mid-40
 #: (sensor id, head, the unit's lidar_id): the units of all sensors in sensor then head order
 UNITS = [(0, 0, 0), (0, 1, 1), (0, 2, 2), (1, 0, 3)]
 V1_POINT = [("x", 0, 7, 1), ("y", 4, 7, 1), ("z", 8, 7, 1), ("intensity", 12, 7, 1), ("tag", 16, 2, 1),
             ("line", 17, 2, 1)]  # livox_ros_driver's LivoxPointXyzrtl (lds.h, packed): 18 bytes
-
-
-def _clip():
-    """Factory frames from both sensors: every third point the Mid-40's (its one head), the rest the Mid-100's."""
-    out = []
-    for frame in make_clip("clip_0000", 3, points=300):
-        mid40 = np.arange(len(frame.scan.points_m)) % 3 == 0
-        scan = dataclasses.replace(frame.scan, sensor=mid40.astype(np.uint8), head=np.where(mid40, 0, frame.scan.head))
-        out.append(dataclasses.replace(frame, scan=scan))
-    return out
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +29,8 @@ def parquet(tmp_path_factory):
     from simgen.datasets import finish_dataset, write_clip
 
     root = tmp_path_factory.mktemp("livox") / "parquet"
-    finish_dataset(root, "parquet", [write_clip(root, "parquet", _clip(), SENSORS, 0)], SENSORS, {"name": "x"}, 3)
+    record = write_clip(root, "parquet", with_mid40(make_clip("clip_0000", 3, points=300), 3), SENSORS, 0)
+    finish_dataset(root, "parquet", [record], SENSORS, {"name": "x"}, 3)
     return root
 
 

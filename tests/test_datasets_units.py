@@ -4,32 +4,17 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 import yaml
 
 import simgen.datasets
-from scan_patterns import get_sensor
 from simgen.datasets import openpcdet, openpcdet_config
 from simgen.datasets.units import lidar_units, unit_numbers, unit_sensor_head
 from simgen.errors import UserError
-from simgen.scan.sensor import Sensor
-from tests.support.datasets import make_clip, sensors
+from tests.support.datasets import make_clip, mid40, sensors, with_mid40
 
-MID40 = Sensor(1, "mid40", "mid40-risley", (10.0, 36.0, 6.0, 0.0, -15.0, -90.0), get_sensor("mid40-risley").heads,
-               100_000.0, 10.0, 1, 1.0)
-SENSORS = [*sensors(), MID40]  # a Mid-100 (units 0-2) and a Mid-40 (unit 3)
-
-
-def _clip():
-    out = []
-    for frame in make_clip("clip_0000", 3, points=200):
-        mid40 = np.arange(len(frame.scan.points_m)) % 4 == 0
-        scan = dataclasses.replace(frame.scan, sensor=mid40.astype(np.uint8), head=np.where(mid40, 0, frame.scan.head))
-        out.append(dataclasses.replace(frame, scan=scan))
-    return out
+SENSORS = [*sensors(), mid40()]  # a Mid-100 (units 0-2) and a Mid-40 (unit 3)
 
 
 @pytest.fixture(scope="module")
@@ -38,7 +23,7 @@ def written(tmp_path_factory):
 
     root = tmp_path_factory.mktemp("units")
     for fmt in ("parquet", "openpcdet"):
-        record = write_clip(root / fmt, fmt, _clip(), SENSORS, 0)
+        record = write_clip(root / fmt, fmt, with_mid40(make_clip("clip_0000", 3, points=200), 4), SENSORS, 0)
         finish_dataset(root / fmt, fmt, [record], SENSORS, {"name": "units"}, 3)
     return root
 
