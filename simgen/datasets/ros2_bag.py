@@ -18,6 +18,11 @@ Topics (CDR-encoded, ROS 2 Humble message definitions), each channel with rosbag
   `LIVOX_LAYOUT`: exactly the driver's 26 bytes, in the sensor's own frame (`frame_id` its name, posed
   on `/tf_static`); `XYZI_LAYOUT`: x, y, z, intensity in the pitch frame on one topic,
   `/simgen/points`, for datasets that keep no sensor, head, time or instance per point (KITTI, OpenPCDet).
+- Or, as Livox's drivers publish each lidar, a message per lidar unit (a sensor's head, `units.LidarUnit`) and
+  frame on `/simgen/<sensor name>/lidar_<head>`, in the sensor's frame, stamped at the unit's first point:
+  `LIVOX_CUSTOM_LAYOUT` livox_ros_driver2's `CustomMsg`, `LIVOX_V1_LAYOUT` livox_ros_driver's 18-byte
+  PointCloud2 (x, y, z, intensity, tag, line), `LIVOX_V1_CUSTOM_LAYOUT` its `CustomMsg` (`livox_msgs`);
+  `Naming` renames topics and frames (`--topic`, `--frame-id`).
 - `/simgen/boxes`, `visualization_msgs/msg/MarkerArray` per frame: DELETEALL, then per humanoid a
   CUBE (namespace `boxes`, marker id = track id, `text` the class, which RViz does not draw on a
   cube) and a TEXT_VIEW_FACING (namespace `track_ids`) with the track id; a humanoid the engine placed
@@ -25,7 +30,8 @@ Topics (CDR-encoded, ROS 2 Humble message definitions), each channel with rosbag
 - `/tf_static`, `tf2_msgs/msg/TFMessage` once, at the first frame's stamp: `pitch` -> each sensor's name, its pose.
 
 Stamps are game time (seconds since kick-off of the captured clip, not the Unix epoch), the same in
-every format: a cloud's header stamp is the frame's sweep start (`Frame.time_s`), the boxes' the label
+every format: a cloud's header stamp is the frame's sweep start (`Frame.time_s`; a unit's message: its first
+point's time), the boxes' the label
 time (`Frame.label_time_s`). `BagWriter` takes frames one at a time and writes each as it comes.
 """
 
@@ -613,7 +619,8 @@ def card_lines() -> list[str]:
         "bytes are",
         "  livox_ros_driver2's point (`LivoxPointXyzrtlt`), but in the pitch frame, not the sensor's; read the fields "
         "by",
-        "  name. `simgen export --ros2-layout livox` writes the driver's exact 26-byte point in each sensor's frame.",
+        "  name. `simgen export --ros2-layout livox` writes the driver's exact 26-byte point in each sensor's frame;",
+        "  `livox-custom`, `livox-v1` and `livox-v1-custom` a message per lidar unit as Livox's drivers publish them.",
         "",
         "| field | offset | type | meaning |",
         "| --- | --- | --- | --- |",
