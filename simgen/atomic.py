@@ -60,9 +60,9 @@ def atomic_directory(path: str | Path, name: str, replace: bool = False) -> Iter
 
 
 def check_new(path: Path) -> None:
-    """Refuse an output directory that exists already."""
+    """Refuse an output (a bag directory, a LAS file) that exists already."""
     if path.exists():
-        raise UserError(f"{path}: exists already; give a new directory name")
+        raise UserError(f"{path}: exists already; give a new name")
 
 
 OUTPUT_ROOTS_ENV = "SIMGEN_OUTPUT_ROOTS"
