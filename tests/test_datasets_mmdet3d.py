@@ -3,8 +3,7 @@
 
 from __future__ import annotations
 
-import io
-import pickle
+import json
 
 import numpy as np
 import pytest
@@ -14,21 +13,10 @@ from simgen.datasets.samples import sample_number
 from tests.support.datasets import make_clip, write_dataset
 
 
-class _PlainData(pickle.Unpickler):
-    """Loads plain dicts, lists, str, int and float only: any class or function in the file is an error."""
-
-    def find_class(self, module, name):
-        raise pickle.UnpicklingError(f"the info file names {module}.{name}")
-
-
-def _load_infos(path) -> dict:
-    return _PlainData(io.BytesIO(path.read_bytes())).load()
-
-
 def _mmdet3d_style_samples(root, split: str):
     """What MMDetection3D's Det3DDataset and LoadPointsFromFile(load_dim, use_dim=4) make of each info:
     (sample_idx, points (N, 4), boxes (H, 7) bottom-centred, labels (H,)), and the categories."""
-    infos = _load_infos(root / f"mmdet3d_infos_{split}.pkl")
+    infos = json.loads((root / f"mmdet3d_infos_{split}.json").read_text())  # as mmengine.load reads a .json
     assert infos["metainfo"]["info_version"] == "1.1"
     out = []
     for info in infos["data_list"]:

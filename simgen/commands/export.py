@@ -1,4 +1,4 @@
-"""`simgen export`: a clip of any simgen dataset as a ROS 2 bag in MCAP."""
+"""`simgen export`: a clip of any simgen dataset as a ROS 2 bag in MCAP, or of a Parquet dataset as a LAS file."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ def register(subparsers) -> None:
     parser = add_command(
         subparsers,
         "export",
-        "a clip of a dataset as a ROS 2 bag (MCAP)",
+        "a clip of a dataset as a ROS 2 bag (MCAP) or a LAS file",
         "Write the frames A:B of a clip of any simgen dataset as one ROS 2 bag in MCAP: per sensor a "
         "sensor_msgs/PointCloud2 per frame, the boxes as a visualization_msgs/MarkerArray with track ids at the "
         "label time, and the sensor poses on /tf_static (transient local, as tf2 publishes them); stamps are "

@@ -1,7 +1,8 @@
-"""MMDetection3D's info files for an OpenPCDet dataset: `mmdet3d_infos_{train,val}.pkl`, its v2 info layout
+"""MMDetection3D's info files for an OpenPCDet dataset: `mmdet3d_infos_{train,val}.json`, its v2 info layout
 (what `update_infos_to_v2` writes and its current `Det3DDataset` loads), beside the points they name.
 
-A pickle of plain dicts, lists, str, int and float (nothing that imports or runs code when loaded):
+JSON, not the .pkl its converters write: `mmengine.load`, which `Det3DDataset` reads its `ann_file` with, takes
+either by the file's extension, and a simgen dataset holds no pickle (loading one can run code).
 
     {"metainfo": {"categories": {"Pedestrian": 0, "Official": 1}, "dataset": "simgen", "info_version": "1.1"},
      "data_list": [{"sample_idx": 10003,
@@ -16,7 +17,7 @@ the heading, width, height, yaw counter-clockwise from +x, in the pitch frame.
 
 from __future__ import annotations
 
-import pickle
+import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -33,11 +34,10 @@ if TYPE_CHECKING:
 
 INFO_VERSION = "1.1"
 SPLITS = ("train", "val")
-PICKLE_PROTOCOL = 4
 
 
 def info_path(split: str) -> str:
-    return f"mmdet3d_infos_{split}.pkl"
+    return f"mmdet3d_infos_{split}.json"
 
 
 def bbox_3d(box: np.ndarray) -> list[float]:
@@ -63,8 +63,8 @@ def card_lines() -> list[str]:
         f"`{info_path('train')}` and `{info_path('val')}`: MMDetection3D's info files (its v2 layout, which",
         "`Det3DDataset` loads), the ImageSets' splits: per sample `sample_idx`, `lidar_points` (`lidar_path` under",
         f"`points/`, `num_pts_feats` {len(openpcdet.COLUMNS)}) and `instances` (`bbox_3d`: the LiDAR box, bottom-face",
-        "centre x y z, length, width, height, yaw; `bbox_label_3d`: the index in `metainfo.categories`). A pickle of",
-        "plain dicts and lists. In MMDetection3D, a `Det3DDataset` subclass with",
+        "centre x y z, length, width, height, yaw; `bbox_label_3d`: the index in `metainfo.categories`). JSON, which",
+        "`mmengine.load` reads as it reads its .pkl infos. In MMDetection3D, a `Det3DDataset` subclass with",
         f"`METAINFO = {{'classes': {classes}}}` whose `parse_ann_info` wraps `gt_bboxes_3d` in `LiDARInstance3DBoxes`",
         "(and gives empty arrays for a sample with no box), `data_prefix=dict(pts='points')` and",
         f"`LoadPointsFromFile(coord_type='LIDAR', load_dim={len(openpcdet.COLUMNS)}, use_dim=4)` reads them.",
@@ -82,6 +82,6 @@ def write_infos(root: Path, clips: Sequence[ClipRecord]) -> list[FileRecord]:
             data_list.append(data_info(name, boxes, classes))
         infos = {"metainfo": {"categories": {c: i for i, c in enumerate(CLASS_NAMES)}, "dataset": "simgen",
                               "info_version": INFO_VERSION}, "data_list": data_list}
-        data = pickle.dumps(infos, protocol=PICKLE_PROTOCOL)
+        data = json.dumps(infos, separators=(",", ":")).encode()
         records.append(write_bytes(root, info_path(split), data, len(data_list)))
     return records
