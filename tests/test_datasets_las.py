@@ -22,7 +22,8 @@ def test_laspy_reads_the_frames_back_as_parquet_has_them(tmp_path, capsys):
     data = simgen.datasets.open(tmp_path / "d")
     frames = [data.frame("clip_0000", i) for i in range(1, 4)]
     total = sum(len(f.points_m) for f in frames)
-    assert capsys.readouterr().out.endswith(f"{out}: 3 frames of clip_0000, {total:,} points (LAS 1.4, point format 6)\n")
+    summary = f"{out}: 3 frames of clip_0000, {total:,} points (LAS 1.4, point format 6)\n"
+    assert capsys.readouterr().out.endswith(summary)
     las = laspy.read(out)
     assert las.header.point_count == len(las.points) == total and las.header.version == "1.4"
     xyz = np.concatenate([f.points_m for f in frames]).astype(np.float64)
