@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -32,6 +33,38 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def atomic_directory(path: str | Path, name: str, replace: bool = False) -> Iterator[Path]:
+    """Yield `<temporary directory beside path>/<name>`, not yet created; move it to `path` on success.
+
+    For writers that create their directory themselves and name files inside after it (rosbags' bag
+    `Writer`). `replace`: an existing directory `path` is replaced (else an error naming it).
+    """
+    path = Path(path)
+    check_output_allowed(path)
+    if not (replace and path.is_dir()):
+        check_new(path)
+    if not path.parent.is_dir():
+        raise UserError(f"{path.parent}: output directory does not exist")
+    if not os.access(path.parent, os.W_OK):
+        raise UserError(f"{path.parent}: output directory is not writable")
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    tmp.mkdir()
+    try:
+        yield tmp / name
+        if path.exists():
+            os.replace(path, tmp / f"{name}.old")
+        os.replace(tmp / name, path)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def check_new(path: Path) -> None:
+    """Refuse an output (a bag directory, a LAS file) that exists already."""
+    if path.exists():
+        raise UserError(f"{path}: exists already; give a new name")
 
 
 OUTPUT_ROOTS_ENV = "SIMGEN_OUTPUT_ROOTS"

@@ -21,10 +21,10 @@ def test_help_and_validate_import_no_heavy_library(arguments):
 
 
 def test_reading_datasets_and_training_need_no_writer_libraries():
-    """In a Python without mcap, mcap-ros2-support, rosbags, Open3D, trimesh or numba (a training
+    """In a Python without mcap, mcap-ros2-support, rosbags, laspy, Open3D, trimesh or numba (a training
     machine), `simgen.datasets` and `train.cli` import: the bag writer and reader import theirs when
     used, the Risley pattern compiles its loops when directions are first asked for."""
-    blocked = ("mcap", "mcap_ros2", "rosbags", "open3d", "trimesh", "numba")
+    blocked = ("mcap", "mcap_ros2", "rosbags", "laspy", "open3d", "trimesh", "numba")
     probe = (
         "import importlib.abc, sys\n"
         "class Block(importlib.abc.MetaPathFinder):\n"

@@ -28,7 +28,7 @@ CORRUPTIBLE = [
     ("kitti_tracking", "training/label_02/0001.txt"),
     ("openpcdet", "points/010002.npy"),
     ("openpcdet", "labels/010002.txt"),
-    ("mcap", "clip_0001.mcap"),
+    ("mcap", "clip_0001/clip_0001.mcap"),
 ]
 
 

@@ -25,6 +25,7 @@ from simgen.datasets.ros2_bag import (
     SIMGEN_LAYOUT,
     TF_STATIC_TOPIC,
     XYZI_LAYOUT,
+    bag_name,
     cloud_array,
     points_topic,
 )
@@ -61,8 +62,13 @@ def written(tmp_path_factory):
     return root
 
 
-def _mcap_messages(path):
-    with path.open("rb") as stream:
+def _mcap_file(bag):
+    """The MCAP in the bag directory `bag`."""
+    return bag / f"{bag_name(bag)}.mcap"
+
+
+def _mcap_messages(bag):
+    with _mcap_file(bag).open("rb") as stream:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
         summary = reader.get_summary()
         messages = [
@@ -85,7 +91,7 @@ def test_every_point_and_box_matches_the_parquet_dataset(written, library):
     parquet = simgen.datasets.open(written / "parquet")
     for frames in CLIPS:
         clip = frames[0].clip
-        path = written / "mcap" / f"{clip}.mcap"
+        path = written / "mcap" / clip
         messages = _mcap_messages(path)[1] if library == "mcap" else _rosbags_messages(path)
         by_topic: dict[str, list] = {}
         for topic, message in messages:
@@ -125,7 +131,7 @@ def test_every_point_and_box_matches_the_parquet_dataset(written, library):
 
 
 def test_static_transforms_are_the_sensor_poses(written):
-    _, messages = _mcap_messages(written / "mcap" / "clip_0000.mcap")
+    _, messages = _mcap_messages(written / "mcap" / "clip_0000")
     (tf,) = [m for topic, m in messages if topic == TF_STATIC_TOPIC]
     assert [t.child_frame_id for t in tf.transforms] == [s.name for s in SENSORS]
     for transform, info in zip(tf.transforms, SENSORS):
@@ -137,7 +143,7 @@ def test_static_transforms_are_the_sensor_poses(written):
 
 
 def test_the_summary_lists_the_ros2_schemas_and_every_message(written):
-    summary, messages = _mcap_messages(written / "mcap" / "clip_0000.mcap")
+    summary, messages = _mcap_messages(written / "mcap" / "clip_0000")
     schemas = {s.name for s in summary.schemas.values()}
     assert schemas == {"sensor_msgs/msg/PointCloud2", "visualization_msgs/msg/MarkerArray", "tf2_msgs/msg/TFMessage"}
     assert {s.encoding for s in summary.schemas.values()} == {"ros2msg"}
@@ -159,13 +165,14 @@ def test_the_mcap_dataset_reads_back_through_simgen_datasets_open(written):
 
 
 def test_export_from_parquet_equals_the_generated_bag(written, tmp_path):
-    out = tmp_path / "clip.mcap"
+    out = tmp_path / "clip_0001"  # the bag's name is in its MCAP (rosbag2's metadata record)
     assert main(["export", str(written / "parquet"), "--format", "mcap", "-o", str(out), "--clip", "clip_0001"]) == 0
-    assert out.read_bytes() == (written / "mcap" / "clip_0001.mcap").read_bytes()
+    for name in ("clip_0001.mcap", "metadata.yaml"):
+        assert (out / name).read_bytes() == (written / "mcap" / "clip_0001" / name).read_bytes()
 
 
-def _channel_metadata(path) -> dict[str, dict[str, str]]:
-    with path.open("rb") as stream:
+def _channel_metadata(bag) -> dict[str, dict[str, str]]:
+    with _mcap_file(bag).open("rb") as stream:
         return {c.topic: c.metadata for c in make_reader(stream).get_summary().channels.values()}
 
 
@@ -188,7 +195,7 @@ def test_every_channel_carries_rosbag2s_offered_qos_profiles(written, tmp_path):
     exported = tmp_path / "kitti.mcap"
     write_dataset(tmp_path / "kitti", "kitti", [make_clip("clip_0000", 2)])
     assert main(["export", str(tmp_path / "kitti"), "-o", str(exported)]) == 0
-    for path in (written / "mcap" / "clip_0000.mcap", exported):
+    for path in (written / "mcap" / "clip_0000", exported):
         metadata = _channel_metadata(path)
         with AnyReader([path], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as reader:
             offered = {c.topic: c.ext.offered_qos_profiles for c in reader.connections}
@@ -234,7 +241,7 @@ def test_exports_of_one_clip_from_parquet_and_from_kitti_have_the_same_stamps(tm
     want = [clip[i] for i in range(1, 4)]
     assert stamps[BOXES_TOPIC] == [round(f.label_time_s * 1e9) for f in want]  # boxes at the label time
     assert stamps[TF_STATIC_TOPIC] == [round(want[0].time_s * 1e9)]  # playback starts with the first frame
-    with (tmp_path / "kitti.mcap").open("rb") as stream:
+    with _mcap_file(tmp_path / "kitti.mcap").open("rb") as stream:
         log_times = [m.log_time for _, _, m in make_reader(stream).iter_messages(log_time_order=True)]
     assert log_times[0] == round(want[0].time_s * 1e9) == min(log_times)
 
@@ -243,7 +250,9 @@ def test_export_from_kitti_has_one_points_topic_of_what_kitti_keeps(tmp_path, ca
     write_dataset(tmp_path / "kitti", "kitti", [make_clip("clip_0000", 3)])
     out = tmp_path / "kitti.mcap"
     assert main(["export", str(tmp_path / "kitti"), "-o", str(out), "--frames", "1:3"]) == 0
-    assert capsys.readouterr().out.endswith(f"{out}: 2 frames of clip_0000, 5 messages (ROS 2, MCAP, xyzi points)\n")
+    assert capsys.readouterr().out.endswith(
+        f"{out}: 2 frames of clip_0000, 5 messages (ROS 2, MCAP, xyzi points), in kitti.mcap and metadata.yaml\n"
+    )
     kitti = simgen.datasets.open(tmp_path / "kitti")
     clouds = [m for topic, m in _rosbags_messages(out) if topic == "/simgen/points"]
     for index, cloud in zip((1, 2), clouds):
@@ -253,7 +262,7 @@ def test_export_from_kitti_has_one_points_topic_of_what_kitti_keeps(tmp_path, ca
         np.testing.assert_array_equal(np.stack([got["x"], got["y"], got["z"]], 1), want.points_m)
         np.testing.assert_array_equal(got["intensity"], want.intensity)
     assert main(["export", str(tmp_path / "kitti"), "-o", str(tmp_path)]) == 2
-    assert capsys.readouterr().err == f"simgen export: error: {tmp_path}: is a directory, expected a file name\n"
+    assert capsys.readouterr().err == f"simgen export: error: {tmp_path}: exists already; give a new name\n"
     assert main(["export", str(tmp_path / "kitti"), "-o", str(tmp_path / "livox.mcap"), "--ros2-layout", "livox"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--ros2-layout livox: a kitti dataset keeps no sensor" in err
@@ -296,3 +305,23 @@ def test_the_livox_layout_is_the_drivers_26_byte_point_in_each_sensors_frame(wri
             assert np.all(
                 np.abs(got["timestamp"] - (want.time_s + want.time_offset_s[mine].astype(np.float64)) * 1e9) <= 1
             )
+
+
+def test_each_bag_is_a_rosbag2_directory_whose_metadata_lists_its_mcap_and_topics(written):
+    bag = written / "mcap" / "clip_0000"
+    assert sorted(p.name for p in bag.iterdir()) == ["clip_0000.mcap", "metadata.yaml"]
+    info = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    summary, messages = _mcap_messages(bag)
+    assert info["storage_identifier"] == "mcap" and info["relative_file_paths"] == ["clip_0000.mcap"]
+    assert info["message_count"] == len(messages)
+    counts = {t["topic_metadata"]["name"]: t["message_count"] for t in info["topics_with_message_count"]}
+    assert counts == {topic: sum(1 for t, _ in messages if t == topic) for topic, _ in messages}
+    assert info["starting_time"]["nanoseconds_since_epoch"] == min(m.log_time for m in _raw(bag))
+    types = {t["topic_metadata"]["name"]: t["topic_metadata"]["type"] for t in info["topics_with_message_count"]}
+    channels = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()}
+    assert types == channels
+
+
+def _raw(bag):
+    with _mcap_file(bag).open("rb") as stream:
+        return [message for _, _, message in make_reader(stream).iter_messages()]

@@ -162,6 +162,8 @@ def test_a_format_reads_back_what_it_says_it_carries(datasets, format):
     carries = data.plugin.carries
     for frame in data:
         assert (frame.track_id is not None, frame.discontinuity is not None) == (carries.track_ids, carries.track_ids)
-        per_point = (frame.sensor, frame.time_offset_s, frame.line, frame.instance_id)
-        assert [field is not None for field in per_point] == [carries.point_fields] * 4
+        per_point = (frame.time_offset_s, frame.line, frame.instance_id)
+        assert [field is not None for field in per_point] == [carries.point_fields] * 3
+        assert (frame.sensor is not None) == (carries.point_fields or carries.units)
+        assert (frame.head is not None) == carries.units
         assert (frame.num_points is not None) == carries.point_counts

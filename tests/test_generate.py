@@ -72,7 +72,7 @@ def test_other_formats_round_trip_to_the_parquet_frames(parquet_dataset, tmp_pat
             )
     if fmt == "kitti":  # the same clip exported from both: the same stamps
         stamps = [
-            _bag_stamps(tmp_path / f"{name}.mcap", dataset)
+            _bag_stamps(tmp_path / f"{name}_bag", dataset)
             for name, dataset in (("parquet", parquet_dataset[0]), ("kitti", tmp_path / fmt))
         ]
         assert stamps[0] == stamps[1] and len(stamps[0]) == 2 * 6 + 1
@@ -83,7 +83,7 @@ def _bag_stamps(bag, dataset) -> list[tuple[str, int, int]]:
     result = run_simgen("export", dataset, "-o", bag, "--clip", "clip_0001")
     assert result.returncode == 0, result.stderr
     out = []
-    with bag.open("rb") as stream:
+    with (bag / f"{bag.name}.mcap").open("rb") as stream:
         for _, channel, message, decoded in make_reader(
             stream, decoder_factories=[DecoderFactory()]
         ).iter_decoded_messages():

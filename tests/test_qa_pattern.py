@@ -33,6 +33,7 @@ def test_the_fitted_risley_pattern_passes_against_the_official_file(risley):
     images = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", markdown)
     assert len(images) == 4 and all((out / image).is_file() for image in images)
     assert "| pass | mid40-risley head 0 | coverage, 0.2 deg cells |" in markdown
+    assert not re.search(r"-0\.0+\b(?!\d)", markdown)  # no negative zero: a difference that rounds to 0 reads +0.00
 
 
 def test_the_papers_rose_fails_where_it_differs_from_the_sensor(tmp_path):

@@ -77,9 +77,9 @@ def test_points_are_at_the_sweep_start_and_boxes_at_the_label_time_as_in_the_bag
     assert (
         boxes == _logged_at(rows, "/world/headings:Arrows3D:vectors") == [round(f.label_time_s * 1e9) for f in frames]
     )
-    bag = tmp_path / "clip.mcap"
+    bag = tmp_path / "clip"
     assert main(["export", str(data.root), "-o", str(bag), "--frames", f"{FRAMES.start}:{FRAMES.stop}"]) == 0
-    with bag.open("rb") as stream:
+    with (bag / "clip.mcap").open("rb") as stream:
         markers = [m.markers[0].header.stamp for _, c, _, m in make_reader(stream, decoder_factories=[DecoderFactory()])
                    .iter_decoded_messages(topics=[BOXES_TOPIC])]
     assert boxes == [stamp.sec * 1_000_000_000 + stamp.nanosec for stamp in markers]

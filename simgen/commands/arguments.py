@@ -49,8 +49,9 @@ def add_dataset_argument(parser: argparse.ArgumentParser, **kwargs) -> None:
     )
 
 
-def frame_range(text: str, frames: int) -> range:
-    """Frames of `A:B` (either may be left out) or `A`, within 0..frames-1; bad ones are a `UserError`."""
+def frame_range(text: str, frames: int, option: str = "--frames") -> range:
+    """Frames of `A:B` (either may be left out) or `A`, within 0..frames-1; bad ones are a `UserError` naming
+    `option`."""
     try:
         if ":" in text:
             start_text, stop_text = text.split(":", 1)
@@ -60,9 +61,9 @@ def frame_range(text: str, frames: int) -> range:
             start = int(text)
             stop = start + 1
     except ValueError:
-        raise UserError(f"--frames: expected A:B or A (whole numbers), got {_shown(text)!r}") from None
+        raise UserError(f"{option}: expected A:B or A (whole numbers), got {_shown(text)!r}") from None
     if not 0 <= start < stop <= frames:
-        raise UserError(f"--frames {_shown(text)}: the clip has frames 0-{frames - 1}")
+        raise UserError(f"{option} {_shown(text)}: the clip has frames 0-{frames - 1}")
     return range(start, stop)
 
 

@@ -50,8 +50,9 @@ def register(subparsers) -> None:
     )
     parser.add_argument("--scale", type=float, default=DEFAULT_PX_PER_M, metavar="PX_PER_M",
                         help=f"pixels per metre (default {DEFAULT_PX_PER_M:g})")
-    parser.add_argument("--export-frame", type=int, action="append", default=[], metavar="I",
-                        help="also write frame I's points as PCD or PLY (repeatable)")
+    parser.add_argument("--export-frame", action="append", default=[], metavar="I|A:B",
+                        help="also write frame I's points, or frames A to B-1's, a file per frame, as PCD or PLY "
+                        "(repeatable)")
     parser.add_argument(
         "--export-format", choices=EXPORT_FORMATS, default="pcd", help="format of --export-frame (default pcd)"
     )
@@ -85,7 +86,8 @@ def run(args) -> int:
     dataset = open_dataset(args.dataset)
     clip = args.clip if args.clip is not None else dataset.clips[0]
     frames = frame_range(args.frames, dataset.num_frames(clip))
-    exports = [frame_range(str(i), dataset.num_frames(clip))[0] for i in args.export_frame]
+    exports = sorted({i for text in args.export_frame for i in frame_range(text, dataset.num_frames(clip),
+                                                                            "--export-frame")})
     dataset.frame(clip, frames.start)  # a clip that does not read is one line, before any progress bar
     out = args.output
     if args.rerun is not None:

@@ -1,8 +1,10 @@
 """OpenPCDet's custom format: `points/NNNNNN.npy`, `labels/NNNNNN.txt`, `ImageSets/{train,val}.txt`.
 
-Points: .npy float32 (P, 4) x, y, z, intensity / 255, in the pitch frame as is (so OpenPCDet's
+Points: .npy float32 (P, 5) x, y, z, intensity / 255, in the pitch frame as is (so OpenPCDet's
 `POINT_CLOUD_RANGE` must cover the pitch, 105 x 68 m about the origin, not a range ahead of a
-sensor). Labels: one line
+sensor), and the lidar unit (the head that fired, numbered across the sensors: `simgen.datasets.units`), which
+OpenPCDet's custom dataset carries as a source feature its model does not use. Datasets written before the
+unit column (P, 4) read too. Labels: one line
 per humanoid, `x y z dx dy dz heading name`: centre, length (along the heading), width, height,
 yaw counter-clockwise from +x (OpenPCDet's own box convention, which is ours), name `Pedestrian`
 or `Official`. NNNNNN is the global sample number of simgen.datasets.samples.
@@ -11,6 +13,7 @@ or `Official`. NNNNNN is the global sample number of simgen.datasets.samples.
 from __future__ import annotations
 
 import io
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -19,20 +22,36 @@ import numpy as np
 from simgen.datasets.frame import Frame, class_names
 from simgen.datasets.records import FileRecord, write_bytes, write_text
 from simgen.datasets.samples import float32_text, from_xyzi, sample_name, to_xyzi
+from simgen.datasets.units import unit_numbers, unit_sensor_head
 from simgen.datasets.verify import DatasetFiles
 from simgen.errors import UserError
 from simgen.vocab import CLASS_NAMES
 
 if TYPE_CHECKING:
     from simgen.labels.labelled_frame import LabelledFrame
+    from simgen.scan.sensor import Sensor
+
+COLUMNS = ("x", "y", "z", "intensity", "lidar_unit")  # of a points file; (P, 4) before the unit column
+
+
+POINTS_DIR = "points"
+
+
+def points_file(sample: str) -> str:
+    """A sample's points file in POINTS_DIR."""
+    return f"{sample}.npy"
 
 
 def points_path(clip_index: int, index: int) -> str:
-    return f"points/{sample_name(clip_index, index)}.npy"
+    return f"{POINTS_DIR}/{points_file(sample_name(clip_index, index))}"
+
+
+def sample_labels_path(sample: str) -> str:
+    return f"labels/{sample}.txt"
 
 
 def labels_path(clip_index: int, index: int) -> str:
-    return f"labels/{sample_name(clip_index, index)}.txt"
+    return sample_labels_path(sample_name(clip_index, index))
 
 
 def npy_bytes(array: np.ndarray) -> bytes:
@@ -50,13 +69,16 @@ def label_lines(frame: LabelledFrame) -> list[str]:
 class OpenPCDetClipStream:
     """One clip's OpenPCDet files written as its frames come: per frame its points and labels."""
 
-    def __init__(self, root: Path, clip_index: int):
-        self.root, self.clip_index = Path(root), clip_index
+    def __init__(self, root: Path, clip_index: int, sensors: Sequence[Sensor]):
+        self.root, self.clip_index, self.sensors = Path(root), clip_index, sensors
         self.records: list[FileRecord] = []
 
     def add(self, frame: LabelledFrame) -> None:
-        xyzi = to_xyzi(frame.scan.points_m, frame.scan.intensity)
-        self.records.append(write_bytes(self.root, points_path(self.clip_index, frame.index), npy_bytes(xyzi), len(xyzi)))
+        scan = frame.scan
+        units = unit_numbers(scan.sensor, scan.head, self.sensors).astype(np.float32)[:, None]
+        points = np.ascontiguousarray(np.concatenate([to_xyzi(scan.points_m, scan.intensity), units], axis=1))
+        self.records.append(write_bytes(self.root, points_path(self.clip_index, frame.index), npy_bytes(points),
+                                        len(points)))
         self.records.append(write_text(self.root, labels_path(self.clip_index, frame.index), label_lines(frame)))
 
     def close(self) -> list[FileRecord]:
@@ -80,26 +102,36 @@ def parse_labels(text: str, path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def read_points(data: bytes, path: Path, rows: int) -> np.ndarray:
+    """(rows, 5) float32 (COLUMNS), or (rows, 4) from a dataset written before the unit column."""
     try:
-        xyzi = np.load(io.BytesIO(data), allow_pickle=False)
+        points = np.load(io.BytesIO(data), allow_pickle=False)
     except (ValueError, OSError, EOFError) as error:
         raise UserError(f"{path}: not a readable .npy file ({error})") from None
-    if xyzi.dtype != np.float32 or xyzi.shape != (rows, 4):
-        raise UserError(f"{path}: {xyzi.dtype} {xyzi.shape}, expected float32 ({rows}, 4)")
-    return xyzi
+    if points.dtype != np.float32 or points.shape not in ((rows, len(COLUMNS)), (rows, 4)):
+        raise UserError(f"{path}: {points.dtype} {points.shape}, expected float32 ({rows}, {len(COLUMNS)})")
+    return points
 
 
 class OpenPCDetReader:
     """Frames of an `openpcdet` dataset."""
 
-    def __init__(self, files: DatasetFiles, clip_indices: dict[str, int]):
+    def __init__(self, files: DatasetFiles, clip_indices: dict[str, int], sensors: Sequence[Sensor]):
         self.files = files
         self.clip_indices = clip_indices
+        self.sensors = sensors
 
     def frame(self, clip: str, index: int) -> Frame:
         clip_index = self.clip_indices[clip]
         points = points_path(clip_index, index)
         labels = labels_path(clip_index, index)
-        xyz, intensity = from_xyzi(read_points(self.files.read(points), self.files.root / points, self.files.rows(points)))
+        array = read_points(self.files.read(points), self.files.root / points, self.files.rows(points))
+        xyz, intensity = from_xyzi(array[:, :4])
+        sensor = head = None
+        if array.shape[1] == len(COLUMNS):
+            try:
+                sensor, head = unit_sensor_head(array[:, 4], self.sensors)
+            except ValueError as error:
+                raise UserError(f"{self.files.root / points}: {error}") from None
         boxes, names = parse_labels(self.files.read(labels).decode(errors="replace"), self.files.root / labels)
-        return Frame(clip=clip, index=index, points_m=xyz, intensity=intensity, boxes=boxes, class_name=names)
+        return Frame(clip=clip, index=index, points_m=xyz, intensity=intensity, boxes=boxes, class_name=names,
+                     sensor=sensor, head=head)

@@ -47,7 +47,7 @@ def class_names(officials: str = "ignored") -> list[str]:
 
 def custom_dataset_config() -> dict:
     """OpenPCDet's custom dataset config (tools/cfgs/dataset_configs/), for the folder linked as data/custom."""
-    features = ["x", "y", "z", "intensity"]
+    features = ["x", "y", "z", "intensity"]  # the model's; the .npy files' have `lidar_unit` after them
     return {
         "DATASET": "CustomDataset",
         "DATA_PATH": "../data/custom",
@@ -56,7 +56,8 @@ def custom_dataset_config() -> dict:
         "DATA_SPLIT": {"train": "train", "test": "val"},
         "INFO_PATH": {"train": ["custom_infos_train.pkl"], "test": ["custom_infos_val.pkl"]},
         "POINT_FEATURE_ENCODING": {
-            "encoding_type": "absolute_coordinates_encoding", "used_feature_list": features, "src_feature_list": list(features),
+            "encoding_type": "absolute_coordinates_encoding", "used_feature_list": features,
+            "src_feature_list": [*features, "lidar_unit"],
         },
         "DATA_AUGMENTOR": {
             "DISABLE_AUG_LIST": ["placeholder"],

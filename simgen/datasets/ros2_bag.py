@@ -1,7 +1,9 @@
-"""A clip as a ROS 2 bag in MCAP (`mcap` + `mcap-ros2-support`, no ROS install), as Livox users record theirs.
+"""A clip as a ROS 2 bag in MCAP (no ROS install), as Livox users record theirs.
 
-The mcap, mcap-ros2-support and rosbags packages are imported only by the functions that write or read a
-bag, so that reading a dataset of another format (or training on one) does not need them.
+A bag is a rosbag2 directory: `<name>/<name>.mcap` beside the `metadata.yaml` that `ros2 bag info` reads,
+written with rosbags' public `Writer` and its typestore's `serialize_cdr`, and read with `mcap` and
+mcap-ros2-support's decoder. These packages are imported only by the functions that write or read a bag, so
+that reading a dataset of another format (or training on one) does not need them.
 
 Topics (CDR-encoded, ROS 2 Humble message definitions), each channel with rosbag2's
 `offered_qos_profiles` metadata (`QOS_PROFILES`), which `ros2 bag play` offers again:
@@ -16,6 +18,11 @@ Topics (CDR-encoded, ROS 2 Humble message definitions), each channel with rosbag
   `LIVOX_LAYOUT`: exactly the driver's 26 bytes, in the sensor's own frame (`frame_id` its name, posed
   on `/tf_static`); `XYZI_LAYOUT`: x, y, z, intensity in the pitch frame on one topic,
   `/simgen/points`, for datasets that keep no sensor, head, time or instance per point (KITTI, OpenPCDet).
+- Or, as Livox's drivers publish each lidar, a message per lidar unit (a sensor's head, `units.LidarUnit`) and
+  frame on `/simgen/<sensor name>/lidar_<head>`, in the sensor's frame, stamped at the unit's first point:
+  `LIVOX_CUSTOM_LAYOUT` livox_ros_driver2's `CustomMsg`, `LIVOX_V1_LAYOUT` livox_ros_driver's 18-byte
+  PointCloud2 (x, y, z, intensity, tag, line), `LIVOX_V1_CUSTOM_LAYOUT` its `CustomMsg` (`livox_msgs`);
+  `Naming` renames topics and frames (`--topic`, `--frame-id`).
 - `/simgen/boxes`, `visualization_msgs/msg/MarkerArray` per frame: DELETEALL, then per humanoid a
   CUBE (namespace `boxes`, marker id = track id, `text` the class, which RViz does not draw on a
   cube) and a TEXT_VIEW_FACING (namespace `track_ids`) with the track id; a humanoid the engine placed
@@ -23,7 +30,8 @@ Topics (CDR-encoded, ROS 2 Humble message definitions), each channel with rosbag
 - `/tf_static`, `tf2_msgs/msg/TFMessage` once, at the first frame's stamp: `pitch` -> each sensor's name, its pose.
 
 Stamps are game time (seconds since kick-off of the captured clip, not the Unix epoch), the same in
-every format: a cloud's header stamp is the frame's sweep start (`Frame.time_s`), the boxes' the label
+every format: a cloud's header stamp is the frame's sweep start (`Frame.time_s`; a unit's message: its first
+point's time), the boxes' the label
 time (`Frame.label_time_s`). `BagWriter` takes frames one at a time and writes each as it comes.
 """
 
@@ -41,9 +49,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from simgen import __version__
-from simgen.atomic import atomic_path
+from simgen.atomic import atomic_directory
+from simgen.datasets import livox_msgs
 from simgen.datasets.frame import Frame, class_names
 from simgen.datasets.records import FileRecord, record_file
+from simgen.datasets.units import LidarUnit, lidar_units
 from simgen.datasets.verify import DatasetFiles
 from simgen.errors import UserError
 from simgen.vocab import OFFICIAL_CLASS
@@ -78,13 +88,16 @@ POINT_FIELDS = (
 
 @dataclass(frozen=True)
 class PointLayout:
-    """A PointCloud2 point: the first `fields` of POINT_FIELDS, packed into `step` bytes."""
+    """A PointCloud2 point: the first `fields` of POINT_FIELDS, packed into `step` bytes; or, with `custom`, Livox's
+    `CustomMsg` of that driver package (`livox_msgs`), its points taken from all of POINT_FIELDS."""
 
     name: str
     fields: int
     step: int
     per_sensor: bool  # a topic per sensor (else one, ALL_POINTS_TOPIC)
     sensor_frame: bool  # points in the sensor's frame (else the pitch frame)
+    per_unit: bool = False  # a message per lidar unit (a head: the Mid-100 has three), stamped at its first point
+    custom: str | None = None  # the Livox driver package whose CustomMsg carries the points (else PointCloud2)
 
     @property
     def point_fields(self) -> tuple[tuple[str, int, int, str], ...]:
@@ -96,11 +109,76 @@ class PointLayout:
         return np.dtype({"names": [f[0] for f in fields], "formats": [f[3] for f in fields],
                          "offsets": [f[1] for f in fields], "itemsize": self.step})
 
+    @property
+    def msgtype(self) -> str:
+        return livox_msgs.custom_msg_type(self.custom) if self.custom else SCHEMAS[0]
+
 
 SIMGEN_LAYOUT = PointLayout("simgen", 9, 34, per_sensor=True, sensor_frame=False)
 LIVOX_LAYOUT = PointLayout("livox", 7, 26, per_sensor=True, sensor_frame=True)  # livox_ros_driver2's LivoxPointXyzrtlt
 XYZI_LAYOUT = PointLayout("xyzi", 4, 16, per_sensor=False, sensor_frame=False)
-LAYOUTS = {layout.name: layout for layout in (SIMGEN_LAYOUT, LIVOX_LAYOUT, XYZI_LAYOUT)}
+#: livox_ros_driver2's CustomMsg; livox_ros_driver's (v1) 18-byte PointCloud2 (LivoxPointXyzrtl) and its CustomMsg.
+LIVOX_CUSTOM_LAYOUT = PointLayout("livox-custom", 9, 34, True, True, per_unit=True, custom=livox_msgs.DRIVER2)
+LIVOX_V1_LAYOUT = PointLayout("livox-v1", 6, 18, True, True, per_unit=True)
+LIVOX_V1_CUSTOM_LAYOUT = PointLayout("livox-v1-custom", 9, 34, True, True, per_unit=True, custom=livox_msgs.DRIVER1)
+LAYOUTS = {layout.name: layout for layout in (SIMGEN_LAYOUT, LIVOX_LAYOUT, XYZI_LAYOUT, LIVOX_CUSTOM_LAYOUT,
+                                              LIVOX_V1_LAYOUT, LIVOX_V1_CUSTOM_LAYOUT)}
+#: `--topic` and `--frame-id` templates' fields: the sensor's name, the unit (head) in it, the unit's lidar_id.
+NAME_FIELDS = ("sensor", "unit", "lidar_id")
+UNIT_TOPIC = "/simgen/{sensor}/lidar_{unit}"  # per-unit layouts' default topic
+
+
+def sensor_units(sensors: Sequence[Sensor]) -> list[LidarUnit]:
+    """A unit per sensor, for the layouts with a message per sensor (head 0, lidar_id its sensor id)."""
+    return [LidarUnit(sensor, 0, sensor.sensor_id) for sensor in sorted(sensors, key=lambda s: s.sensor_id)]
+
+
+@dataclass(frozen=True)
+class Naming:
+    """Topic and frame names of the points, as templates of NAME_FIELDS (None: the layout's default)."""
+
+    topic: str | None = None
+    frame_id: str | None = None
+
+    def topic_of(self, layout: PointLayout, unit: LidarUnit) -> str:
+        default = UNIT_TOPIC if layout.per_unit else points_topic("{sensor}")
+        return _fill(self.topic or default, "--topic", unit)
+
+    def frame_of(self, layout: PointLayout, unit: LidarUnit) -> str:
+        if not layout.sensor_frame:
+            return WORLD_FRAME
+        return _fill(self.frame_id or "{sensor}", "--frame-id", unit)
+
+
+def _fill(template: str, option: str, unit: LidarUnit) -> str:
+    try:
+        return template.format(sensor=unit.sensor.name, unit=unit.head, lidar_id=unit.lidar_id)
+    except (KeyError, IndexError, ValueError) as error:
+        fields = ", ".join(f"{{{f}}}" for f in NAME_FIELDS)
+        raise UserError(f"{option} {template!r}: not a name template ({error}); its fields are {fields}") from None
+
+
+def check_naming(naming: Naming, layout: PointLayout, sensors: Sequence[Sensor]) -> None:
+    """Refuse names the layout cannot take: a frame for pitch-frame points, topics shared by units of PointCloud2s
+    that could not tell them apart (Livox's CustomMsg can: its lidar_id), one frame for sensors at different poses."""
+    if naming.frame_id is not None and not layout.sensor_frame:
+        raise UserError(f"--frame-id: the {layout.name} layout's points are in the {WORLD_FRAME} frame")
+    if naming.topic is not None and not layout.per_sensor:
+        raise UserError(f"--topic: the {layout.name} layout has one points topic, {ALL_POINTS_TOPIC}")
+    if not layout.per_sensor:
+        return
+    units = lidar_units(sensors) if layout.per_unit else sensor_units(sensors)
+    topics = [naming.topic_of(layout, u) for u in units]
+    if not layout.custom and len(set(topics)) < len(topics):
+        raise UserError(f"--topic {naming.topic!r} gives units the same topic; the {layout.name} layout's points carry "
+                        "no lidar id: add {unit} or {lidar_id}, or use a CustomMsg layout")
+    frames: dict[str, int] = {}
+    for unit in units if layout.sensor_frame else []:
+        frame = naming.frame_of(layout, unit)
+        if frames.setdefault(frame, unit.sensor.sensor_id) != unit.sensor.sensor_id:
+            raise UserError(f"--frame-id {naming.frame_id!r} names two sensors' frames {frame!r}; add {{sensor}}")
+
+
 BOX_COLOURS = {OFFICIAL_CLASS: (1.0, 0.9, 0.0, 0.6)}  # RGBA; players white
 PLAYER_COLOUR = (1.0, 1.0, 1.0, 0.6)
 TEXT_HEIGHT_M = 0.5
@@ -114,19 +192,18 @@ SCHEMAS = ("sensor_msgs/msg/PointCloud2", "visualization_msgs/msg/MarkerArray", 
 #: StaticTransformBroadcaster (transient local, keep last 1), so that RViz and tf2, which subscribe to
 #: /tf_static transient local, get them from `ros2 bag play`.
 QOS_PROFILES = {"points": (64, "VOLATILE"), BOXES_TOPIC: (10, "VOLATILE"), TF_STATIC_TOPIC: (1, "TRANSIENT_LOCAL")}
+#: rosbag2's bag format version: 8 writes the QoS profiles with integer enums, which every rosbag2 reads.
+BAG_VERSION = 8
 
 
-def offered_qos_profiles(topic: str) -> str:
-    """The channel metadata value rosbag2 writes for `topic`: its publishers' profiles as YAML (the
-    integer enums of rosbag2 before metadata version 9, which every later rosbag2 still reads)."""
+def offered_qos(topic: str):
+    """`topic`'s publisher profile as rosbags' `Qos`, which its writer stores in the channel and metadata.yaml."""
     from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
-    from rosbags.rosbag2.metadata import dump_qos_v8
 
     depth, durability = QOS_PROFILES.get(topic, QOS_PROFILES["points"])
     never = QosTime(0, 0)  # deadline, lifespan and lease 0: rmw's default, none
-    profile = Qos(QosHistory.KEEP_LAST, depth, QosReliability.RELIABLE, QosDurability[durability], never, never,
-                  QosLiveliness.AUTOMATIC, never, False)
-    return dump_qos_v8([profile])
+    return Qos(QosHistory.KEEP_LAST, depth, QosReliability.RELIABLE, QosDurability[durability], never, never,
+               QosLiveliness.AUTOMATIC, never, False)
 
 
 def points_topic(sensor_name: str) -> str:
@@ -134,19 +211,51 @@ def points_topic(sensor_name: str) -> str:
 
 
 def nanoseconds(seconds: float) -> int:
-    return int(round(seconds * 1e9))
+    return round(seconds * 1e9)
 
 
-def _stamp(ns: int) -> dict:
-    return {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}
+def _types():
+    """The message classes of rosbags' typestore, by ROS type name."""
+    return livox_msgs.typestore().types
 
 
-def _header(ns: int, frame_id: str = WORLD_FRAME) -> dict:
-    return {"stamp": _stamp(ns), "frame_id": frame_id}
+def _stamp(ns: int):
+    return _types()["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
 
-def _quaternion_xyzw(yaw_rad: float) -> dict:
-    return {"x": 0.0, "y": 0.0, "z": float(np.sin(yaw_rad / 2)), "w": float(np.cos(yaw_rad / 2))}
+def _header(ns: int, frame_id: str = WORLD_FRAME):
+    return _types()["std_msgs/msg/Header"](stamp=_stamp(ns), frame_id=frame_id)
+
+
+def _vector(x: float = 0.0, y: float = 0.0, z: float = 0.0, kind: str = "geometry_msgs/msg/Vector3"):
+    return _types()[kind](x=x, y=y, z=z)
+
+
+def _quaternion(x: float = 0.0, y: float = 0.0, z: float = 0.0, w: float = 1.0):
+    return _types()["geometry_msgs/msg/Quaternion"](x=x, y=y, z=z, w=w)
+
+
+def _pose(x: float = 0.0, y: float = 0.0, z: float = 0.0, yaw_rad: float = 0.0):
+    position = _vector(x, y, z, "geometry_msgs/msg/Point")
+    orientation = _quaternion(z=float(np.sin(yaw_rad / 2)), w=float(np.cos(yaw_rad / 2)))
+    return _types()["geometry_msgs/msg/Pose"](position=position, orientation=orientation)
+
+
+def _marker(header, ns: str, id: int, type: int, action: int, pose=None, scale=None, color=(0.0, 0.0, 0.0, 0.0),
+            text: str = ""):
+    """A `visualization_msgs/Marker`; what is not given is ROS's default (zeros, empty)."""
+    types = _types()
+    no_bytes = np.zeros(0, np.uint8)
+    return types["visualization_msgs/msg/Marker"](
+        header=header, ns=ns, id=id, type=type, action=action, pose=pose or _pose(), scale=scale or _vector(),
+        color=types["std_msgs/msg/ColorRGBA"](*color),
+        lifetime=types["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
+        frame_locked=False, points=[], colors=[], texture_resource="",
+        texture=types["sensor_msgs/msg/CompressedImage"](header=_header(0, ""), format="", data=no_bytes),
+        uv_coordinates=[], text=text, mesh_resource="",
+        mesh_file=types["visualization_msgs/msg/MeshFile"](filename="", data=no_bytes),
+        mesh_use_embedded_materials=False,
+    )
 
 
 def sensor_quaternion(sensor: Sensor) -> NDArray[np.float64]:
@@ -159,7 +268,7 @@ def sensor_quaternion(sensor: Sensor) -> NDArray[np.float64]:
 def cloud_points(frame: Frame, mask: NDArray[np.bool_] | slice, stamp_ns: int, layout: PointLayout = SIMGEN_LAYOUT,
                  sensor: Sensor | None = None) -> NDArray:
     """The frame's points (those of `mask`) as a structured array of `layout`; `sensor`: theirs, for a layout in
-    the sensor frame."""
+    the sensor frame. `tag` is 0: simgen fires one return per shot and makes no noise points."""
     points = np.asarray(frame.points_m, np.float32)[mask]
     if layout.sensor_frame:
         points = ((points.astype(np.float64) - sensor.origin_m) @ sensor.rotation).astype(np.float32)
@@ -168,6 +277,7 @@ def cloud_points(frame: Frame, mask: NDArray[np.bool_] | slice, stamp_ns: int, l
     out["intensity"] = np.asarray(frame.intensity)[mask]
     if layout.fields > 4:
         out["line"] = frame.line[mask] if frame.line is not None else 0
+    if layout.fields > 6:
         offset_ns = np.rint(frame.time_offset_s[mask].astype(np.float64) * 1e9)
         out["timestamp"] = stamp_ns + offset_ns
     if layout.fields > 7:
@@ -176,120 +286,169 @@ def cloud_points(frame: Frame, mask: NDArray[np.bool_] | slice, stamp_ns: int, l
     return out
 
 
-def cloud_message(points: NDArray, stamp_ns: int, layout: PointLayout = SIMGEN_LAYOUT, frame_id: str = WORLD_FRAME) -> dict:
-    return {
-        "header": _header(stamp_ns, frame_id),
-        "height": 1,
-        "width": len(points),
-        "fields": [{"name": name, "offset": offset, "datatype": kind, "count": 1} for name, offset, kind, _ in layout.point_fields],
-        "is_bigendian": False,
-        "point_step": layout.step,
-        "row_step": layout.step * len(points),
-        "data": points.tobytes(),
-        "is_dense": True,
-    }
+def unit_points(frame: Frame, mask: NDArray[np.bool_], stamp_ns: int,
+                sensor: Sensor) -> tuple[NDArray, NDArray[np.int64]]:
+    """A lidar unit's points (those of `mask`): all of POINT_FIELDS in the sensor's frame, and each one's shot
+    time (ns)."""
+    points = cloud_points(frame, mask, stamp_ns, LIVOX_CUSTOM_LAYOUT, sensor)
+    return points, stamp_ns + points["offset_time"].astype(np.int64)
 
 
-def markers_message(frame: Frame, stamp_ns: int) -> dict:
+def custom_message(package: str, points: NDArray, shot_ns: NDArray[np.int64], timebase: int, lidar_id: int,
+                   frame_id: str):
+    """Livox's `CustomMsg` (of driver `package`) of one unit's `points` (`unit_points`): header stamp `timebase`
+    (its first point's time), offset_time from it."""
+    types = _types()
+    point = types[f"{package}/msg/CustomPoint"]
+    columns = (shot_ns - timebase, *(points[name] for name in ("x", "y", "z", "intensity", "tag", "line")))
+    return types[livox_msgs.custom_msg_type(package)](
+        header=_header(timebase, frame_id), timebase=timebase, point_num=len(points), lidar_id=lidar_id,
+        rsvd=np.zeros(3, np.uint8),
+        points=[point(offset_time=o, x=x, y=y, z=z, reflectivity=int(r), tag=t, line=line)
+                for o, x, y, z, r, t, line in zip(*(c.tolist() for c in columns))],
+    )
+
+
+def cloud_message(points: NDArray, stamp_ns: int, layout: PointLayout = SIMGEN_LAYOUT, frame_id: str = WORLD_FRAME):
+    """A `sensor_msgs/PointCloud2` of `points` (a structured array of `layout`)."""
+    types = _types()
+    return types["sensor_msgs/msg/PointCloud2"](
+        header=_header(stamp_ns, frame_id), height=1, width=len(points),
+        fields=[types["sensor_msgs/msg/PointField"](name=name, offset=offset, datatype=kind, count=1)
+                for name, offset, kind, _ in layout.point_fields],
+        is_bigendian=False, point_step=layout.step, row_step=layout.step * len(points),
+        data=np.frombuffer(points.tobytes(), np.uint8), is_dense=True,
+    )
+
+
+def markers_message(frame: Frame, stamp_ns: int):
     """DELETEALL, then a CUBE and a track-id TEXT per box, and a `placed` TEXT per box with a discontinuity."""
     header = _header(stamp_ns)
-    markers = [{"header": header, "ns": "boxes", "id": 0, "type": 0, "action": 3, "pose": {"orientation": {"w": 1.0}}}]
+    markers = [_marker(header, "boxes", 0, 0, 3)]
     names = frame.class_name
     ids = frame.track_id if frame.track_id is not None else np.arange(len(frame.boxes))
     placed = frame.discontinuity if frame.discontinuity is not None else np.zeros(len(frame.boxes), bool)
     for box, name, track, jumped in zip(np.asarray(frame.boxes, np.float64), names, ids, placed):
         x, y, z, length, width, height, yaw = box.tolist()
         r, g, b, a = BOX_COLOURS.get(str(name), PLAYER_COLOUR)
-        common = {"header": header, "id": int(track), "action": 0, "frame_locked": False}
-        markers.append({
-            **common, "ns": "boxes", "type": 1, "text": str(name),
-            "pose": {"position": {"x": x, "y": y, "z": z}, "orientation": _quaternion_xyzw(yaw)},
-            "scale": {"x": length, "y": width, "z": height}, "color": {"r": r, "g": g, "b": b, "a": a},
-        })
-        markers.append({
-            **common, "ns": "track_ids", "type": 9, "text": str(int(track)),
-            "pose": {"position": {"x": x, "y": y, "z": z + height / 2 + TEXT_HEIGHT_M}, "orientation": {"w": 1.0}},
-            "scale": {"z": TEXT_HEIGHT_M}, "color": {"r": r, "g": g, "b": b, "a": 1.0},
-        })
+        markers.append(_marker(header, "boxes", int(track), 1, 0, _pose(x, y, z, yaw), _vector(length, width, height),
+                               (r, g, b, a), str(name)))
+        markers.append(_marker(header, "track_ids", int(track), 9, 0, _pose(x, y, z + height / 2 + TEXT_HEIGHT_M),
+                               _vector(z=TEXT_HEIGHT_M), (r, g, b, 1.0), str(int(track))))
         if jumped:
-            markers.append({
-                **common, "ns": DISCONTINUITY_NAMESPACE, "type": 9, "text": "placed",
-                "pose": {"position": {"x": x, "y": y, "z": z + height / 2 + 2.5 * TEXT_HEIGHT_M}, "orientation": {"w": 1.0}},
-                "scale": {"z": TEXT_HEIGHT_M}, "color": {"r": 1.0, "g": 0.3, "b": 0.3, "a": 1.0},
-            })
-    return {"markers": markers}
+            markers.append(_marker(header, DISCONTINUITY_NAMESPACE, int(track), 9, 0,
+                                   _pose(x, y, z + height / 2 + 2.5 * TEXT_HEIGHT_M), _vector(z=TEXT_HEIGHT_M),
+                                   (1.0, 0.3, 0.3, 1.0), "placed"))
+    return _types()["visualization_msgs/msg/MarkerArray"](markers=markers)
 
 
-def tf_static_message(sensors: Sequence[Sensor], stamp_ns: int) -> dict:
+def tf_static_message(frames: Sequence[tuple[str, Sensor]], stamp_ns: int):
+    """`pitch` -> each (frame name, sensor)'s frame: the sensor's pose."""
+    types = _types()
     transforms = []
-    for sensor in sensors:
+    for name, sensor in frames:
         qx, qy, qz, qw = sensor_quaternion(sensor).tolist()
         x, y, z = (float(v) for v in sensor.pose[:3])
-        transforms.append({
-            "header": _header(stamp_ns), "child_frame_id": sensor.name,
-            "transform": {"translation": {"x": x, "y": y, "z": z}, "rotation": {"x": qx, "y": qy, "z": qz, "w": qw}},
-        })
-    return {"transforms": transforms}
+        rotation = _quaternion(qx, qy, qz, qw)
+        transform = types["geometry_msgs/msg/Transform"](translation=_vector(x, y, z), rotation=rotation)
+        transforms.append(types["geometry_msgs/msg/TransformStamped"](
+            header=_header(stamp_ns), child_frame_id=name, transform=transform))
+    return types["tf2_msgs/msg/TFMessage"](transforms=transforms)
+
+
+def check_heads(layout: PointLayout, sensors: Sequence[Sensor], frame: Frame) -> None:
+    """Refuse a per-unit layout for frames that keep no head per point where a sensor has several units."""
+    if layout.per_unit and frame.head is None and any(len(s.heads) > 1 for s in sensors):
+        raise UserError(f"--ros2-layout {layout.name}: the frames keep no head per point, which tells a sensor's "
+                        "lidar units apart (export a Parquet dataset)")
 
 
 class BagWriter:
-    """A ROS 2 MCAP bag written frame by frame: `add(frame)` for each, then `finish()`.
+    """A ROS 2 bag, MCAP storage, written frame by frame with rosbags' `Writer`: `add(frame)` for each, then
+    `finish()` (or `abort()`).
 
-    `sensors`: the dataset's (`Sensor`: name, pose, ...); `layout` the points'
-    PointCloud2 layout (XYZI_LAYOUT puts every point on one topic, for frames that keep no sensor per point).
-    Every frame needs its `time_s` and `label_time_s`.
+    `path`: the bag directory to create, which gets `<its name>.mcap` and rosbag2's `metadata.yaml`;
+    `sensors`: the dataset's (`Sensor`: name, pose, ...); `layout` the points' layout (XYZI_LAYOUT puts every point
+    on one topic, for frames that keep no sensor per point; a per-unit layout a message per lidar unit, which needs
+    each point's head where a sensor has several); `naming` the points' topics and frames. Every frame needs its
+    `time_s` and `label_time_s`.
     """
 
-    def __init__(self, stream: BinaryIO, sensors: Sequence[Sensor], layout: PointLayout = SIMGEN_LAYOUT):
-        from mcap.well_known import SchemaEncoding
-        from mcap.writer import Writer
-        from mcap_ros2._dynamic import serialize_dynamic  # mcap-ros2-support's CDR encoder (its Writer cannot give channels metadata)
-        from rosbags.typesys import Stores, get_typestore
+    def __init__(self, path: Path, sensors: Sequence[Sensor], layout: PointLayout = SIMGEN_LAYOUT,
+                 naming: Naming = Naming()):
+        from rosbags.rosbag2 import StoragePlugin, Writer
 
-        typestore = get_typestore(Stores.ROS2_HUMBLE)
-        self.writer = Writer(stream)
-        self.writer.start(profile="ros2", library=f"simgen {__version__}")
-        self.schemas, self.encoders, self.channels = {}, {}, {}
-        for name in SCHEMAS:
-            text = typestore.generate_msgdef(name, ros_version=2)[0]
-            self.schemas[name] = self.writer.register_schema(name, SchemaEncoding.ROS2, text.encode())
-            self.encoders[name] = serialize_dynamic(name, text)[name]
+        check_naming(naming, layout, sensors)
         self.sensors = sorted(sensors, key=lambda s: s.sensor_id)
-        self.layout = layout
+        self.layout, self.naming = layout, naming
+        self.units = lidar_units(self.sensors) if layout.per_unit else sensor_units(self.sensors)
+        self.store = livox_msgs.typestore()
+        self.bag = Writer(path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+        self.bag.set_custom_data("writer", f"simgen {__version__}")
+        self.bag.open()
+        self.connections = {}
         self.messages = 0
 
-    def _write(self, topic: str, schema: str, message: dict, stamp_ns: int) -> None:
-        if topic not in self.channels:
-            self.channels[topic] = self.writer.register_channel(
-                topic, "cdr", self.schemas[schema], {"offered_qos_profiles": offered_qos_profiles(topic)}
-            )
-        data = self.encoders[schema](message)
-        self.writer.add_message(self.channels[topic], log_time=stamp_ns, data=data, publish_time=stamp_ns, sequence=self.messages)
+    def _write(self, topic: str, msgtype: str, message, stamp_ns: int) -> None:
+        if topic not in self.connections:
+            self.connections[topic] = self.bag.add_connection(
+                topic, msgtype, typestore=self.store, offered_qos_profiles=[offered_qos(topic)])
+        self.bag.write(self.connections[topic], stamp_ns, self.store.serialize_cdr(message, msgtype))
         self.messages += 1
 
     def _write_tf_static(self, stamp_ns: int) -> None:
-        self._write(TF_STATIC_TOPIC, SCHEMAS[2], tf_static_message(self.sensors, stamp_ns), stamp_ns)
+        if self.layout.sensor_frame:
+            frames = {self.naming.frame_of(self.layout, u): u.sensor for u in self.units}
+        else:
+            frames = {s.name: s for s in self.sensors}
+        self._write(TF_STATIC_TOPIC, SCHEMAS[2], tf_static_message(list(frames.items()), stamp_ns), stamp_ns)
 
     def add(self, frame: Frame) -> None:
         stamp_ns = nanoseconds(frame.time_s)
         if not self.messages:  # the static transforms at the first frame's stamp: playback starts there
             self._write_tf_static(stamp_ns)
-        if self.layout.per_sensor:
+        layout = self.layout
+        if layout.per_unit:
+            self._add_units(frame, stamp_ns)
+        elif layout.per_sensor:
             sensor = np.asarray(frame.sensor)
-            for info in self.sensors:
-                frame_id = info.name if self.layout.sensor_frame else WORLD_FRAME
-                points = cloud_points(frame, sensor == info.sensor_id, stamp_ns, self.layout, info)
-                self._write(points_topic(info.name), SCHEMAS[0], cloud_message(points, stamp_ns, self.layout, frame_id), stamp_ns)
+            for unit in self.units:
+                points = cloud_points(frame, sensor == unit.sensor.sensor_id, stamp_ns, layout, unit.sensor)
+                message = cloud_message(points, stamp_ns, layout, self.naming.frame_of(layout, unit))
+                self._write(self.naming.topic_of(layout, unit), SCHEMAS[0], message, stamp_ns)
         else:
-            points = cloud_points(frame, slice(None), stamp_ns, self.layout)
-            self._write(ALL_POINTS_TOPIC, SCHEMAS[0], cloud_message(points, stamp_ns, self.layout), stamp_ns)
+            points = cloud_points(frame, slice(None), stamp_ns, layout)
+            self._write(ALL_POINTS_TOPIC, SCHEMAS[0], cloud_message(points, stamp_ns, layout), stamp_ns)
         label_ns = nanoseconds(frame.label_time_s)
         self._write(BOXES_TOPIC, SCHEMAS[1], markers_message(frame, label_ns), label_ns)
 
+    def _add_units(self, frame: Frame, stamp_ns: int) -> None:
+        """A message per lidar unit, stamped at its first point (the sweep start if it has none)."""
+        layout, sensor = self.layout, np.asarray(frame.sensor)
+        check_heads(layout, self.sensors, frame)
+        head = np.asarray(frame.head) if frame.head is not None else np.zeros(len(sensor), np.uint8)
+        for unit in self.units:
+            points, shot_ns = unit_points(frame, (sensor == unit.sensor.sensor_id) & (head == unit.head), stamp_ns,
+                                          unit.sensor)
+            timebase = int(shot_ns.min()) if len(points) else stamp_ns
+            frame_id = self.naming.frame_of(layout, unit)
+            if layout.custom:
+                message = custom_message(layout.custom, points, shot_ns, timebase, unit.lidar_id, frame_id)
+            else:
+                packed = np.zeros(len(points), layout.dtype)
+                for name in layout.dtype.names:
+                    packed[name] = points[name]
+                message = cloud_message(packed, timebase, layout, frame_id)
+            self._write(self.naming.topic_of(layout, unit), layout.msgtype, message, timebase)
+
     def finish(self) -> None:
+        """Close the MCAP and write `metadata.yaml`."""
         if not self.messages:
             self._write_tf_static(0)
-        self.writer.finish()
+        self.bag.close()
+
+    def abort(self) -> None:
+        self.bag.abort()
 
 
 def labelled_to_frame(frame: LabelledFrame) -> Frame:
@@ -298,7 +457,8 @@ def labelled_to_frame(frame: LabelledFrame) -> Frame:
     return Frame(
         clip=frame.clip, index=frame.index, points_m=scan.points_m, intensity=scan.intensity, boxes=labels.boxes,
         class_name=class_names(labels.team), track_id=labels.track_id, time_s=frame.time_s,
-        label_time_s=frame.label_time_s, time_offset_s=scan.time_offset_s, sensor=scan.sensor, head=scan.head, line=scan.line,
+        label_time_s=frame.label_time_s, time_offset_s=scan.time_offset_s, sensor=scan.sensor, head=scan.head,
+        line=scan.line,
         instance_id=scan.instance_id, discontinuity=labels.discontinuity,
     )
 
@@ -309,14 +469,25 @@ class BagSummary:
     frames: int
 
 
-def write_bag(path: Path, frames: Iterable[Frame], sensors: Sequence[Sensor], layout: PointLayout = SIMGEN_LAYOUT) -> BagSummary:
-    """Write `frames` (an iterable of `Frame`, consumed one at a time) to `path` atomically."""
+def bag_name(path: Path) -> str:
+    """The name of the MCAP in the bag directory `path`: the directory's, less a `.mcap` suffix."""
+    return path.name.removesuffix(".mcap") or path.name
+
+
+def write_bag(path: Path, frames: Iterable[Frame], sensors: Sequence[Sensor], layout: PointLayout = SIMGEN_LAYOUT,
+              naming: Naming = Naming()) -> BagSummary:
+    """Write `frames` (an iterable of `Frame`, consumed one at a time) as the new bag directory `path`
+    (`<bag_name>.mcap` and `metadata.yaml`), atomically."""
     count = 0
-    with atomic_path(path) as tmp, tmp.open("wb") as stream:
-        bag = BagWriter(stream, sensors, layout)
-        for frame in frames:
-            bag.add(frame)
-            count += 1
+    with atomic_directory(path, bag_name(path)) as tmp:
+        bag = BagWriter(tmp, sensors, layout, naming)
+        try:
+            for frame in frames:
+                bag.add(frame)
+                count += 1
+        except BaseException:
+            bag.abort()
+            raise
         bag.finish()
     return BagSummary(bag.messages, count)
 
@@ -327,31 +498,38 @@ def bag_messages(frames: int, sensors: int) -> int:
 
 
 def bag_path(clip: str) -> str:
-    return f"{clip}.mcap"
+    """A clip's MCAP in an `mcap` dataset: in its bag directory `<clip>/`, beside `metadata.yaml`."""
+    return f"{clip}/{clip}.mcap"
+
+
+def bag_metadata_path(clip: str) -> str:
+    return f"{clip}/metadata.yaml"
 
 
 class McapClipStream:
-    """One clip's bag, `<clip>.mcap`, written as its frames come (the dataset writer's stream for
-    format mcap); its record's rows are its messages. `abort` leaves no file under the final name."""
+    """One clip's bag directory, `<clip>/` with `<clip>.mcap` and `metadata.yaml`, written as its frames come (the
+    dataset writer's stream for format mcap); the records' rows are its messages. `abort` leaves nothing under
+    the final name."""
 
     def __init__(self, root: Path, clip: str, sensors: Sequence[Sensor]):
-        self.root, self.relative = Path(root), bag_path(clip)
-        path = self.root / self.relative
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self._files = contextlib.ExitStack()
-        stream = self._files.enter_context(self._files.enter_context(atomic_path(path)).open("wb"))
-        self._bag = BagWriter(stream, sensors)
+        self.root, self.clip = Path(root), clip
+        self.root.mkdir(parents=True, exist_ok=True)
+        self._directory = contextlib.ExitStack()
+        path = self._directory.enter_context(atomic_directory(self.root / clip, clip, replace=True))
+        self._bag = BagWriter(path, sensors)
 
     def add(self, frame: LabelledFrame) -> None:
         self._bag.add(labelled_to_frame(frame))
 
     def close(self) -> list[FileRecord]:
         self._bag.finish()
-        self._files.close()
-        return [record_file(self.root, self.relative, self._bag.messages)]
+        self._directory.close()
+        return [record_file(self.root, relative, self._bag.messages)
+                for relative in (bag_path(self.clip), bag_metadata_path(self.clip))]
 
     def abort(self) -> None:
-        self._files.__exit__(RuntimeError, RuntimeError("aborted"), None)
+        self._bag.abort()
+        self._directory.__exit__(RuntimeError, RuntimeError("aborted"), None)
 
 
 def read_bag(stream: BinaryIO) -> dict[str, list]:
@@ -360,7 +538,8 @@ def read_bag(stream: BinaryIO) -> dict[str, list]:
     from mcap_ros2.decoder import DecoderFactory
 
     topics: dict[str, list] = {}
-    for _, channel, _, message in make_reader(stream, decoder_factories=[DecoderFactory()]).iter_decoded_messages(log_time_order=True):
+    reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+    for _, channel, _, message in reader.iter_decoded_messages(log_time_order=True):
         topics.setdefault(channel.topic, []).append(message)
     return topics
 
@@ -418,8 +597,9 @@ class BagReader:
             return read_bag(io.BytesIO(data))
         except UserError:
             raise
-        except Exception as error:  # the mcap readers raise their own error types for a damaged file
-            raise UserError(f"{self.files.root / relative}: not a readable MCAP bag ({error.__class__.__name__}: {error})") from None
+        except Exception as error:  # noqa: BLE001  the mcap readers raise their own error types for a damaged file
+            problem = f"{error.__class__.__name__}: {error}"
+            raise UserError(f"{self.files.root / relative}: not a readable MCAP bag ({problem})") from None
 
     def frame(self, clip: str, index: int) -> Frame:
         topics = self._clip(clip)
@@ -434,7 +614,8 @@ class BagReader:
         return Frame(
             clip=clip, index=index,
             points_m=np.ascontiguousarray(np.stack([points["x"], points["y"], points["z"]], axis=1)),
-            intensity=points["intensity"].astype(np.uint8), boxes=boxes, class_name=names, track_id=ids, discontinuity=placed,
+            intensity=points["intensity"].astype(np.uint8), boxes=boxes, class_name=names, track_id=ids,
+            discontinuity=placed,
             time_s=stamp_ns / 1e9, label_time_s=(label.sec * 1_000_000_000 + label.nanosec) / 1e9,
             time_offset_s=(points["offset_time"] / 1e9).astype(np.float32),
             sensor=np.concatenate([np.full(len(a), s, np.uint8) for s, a in arrays]) if arrays else None,
@@ -444,19 +625,25 @@ class BagReader:
 
 def card_lines() -> list[str]:
     """The dataset card's layout section for an `mcap` dataset."""
-    meaning = ["metres, pitch frame", "", "", "reflectivity 0-255", "0 (no return flags)", "laser of the head that fired",
-               "shot time, ns (header stamp + offset_time)", "ns since the header stamp", "track id, 1000 ball, -1 none"]
-    rows = [f"| `{name}` | {offset} | {DATATYPE_NAMES[kind]} | {text} |" for (name, offset, kind, _), text in zip(POINT_FIELDS, meaning)]
+    meaning = ["metres, pitch frame", "", "", "reflectivity 0-255", "0 (no return flags)",
+               "laser of the head that fired", "shot time, ns (header stamp + offset_time)",
+               "ns since the header stamp", "track id, 1000 ball, -1 none"]
+    rows = [f"| `{name}` | {offset} | {DATATYPE_NAMES[kind]} | {text} |"
+            for (name, offset, kind, _), text in zip(POINT_FIELDS, meaning)]
     qos = {topic: durability.lower() for topic, (_, durability) in QOS_PROFILES.items()}
     return [
-        "A ROS 2 bag in MCAP per clip, `<clip id>.mcap` (CDR, ROS 2 Humble message definitions in the file; open it",
-        "with Foxglove, `ros2 bag play`, `rosbags` or the `mcap` Python package). Stamps are game time, not the epoch:",
+        "A ROS 2 bag per clip, the rosbag2 directory `<clip id>/`: `<clip id>.mcap` (CDR, ROS 2 Humble message",
+        "definitions in the file) and `metadata.yaml`. Open the directory with `ros2 bag info`, `ros2 bag play` or",
+        "`rosbags`, the `.mcap` with Foxglove or the `mcap` Python package. Stamps are game time, not the epoch:",
         "a cloud's header stamp is its frame's sweep start, the boxes' the label time (the middle of the sweep).",
         "",
         f"- `{points_topic('<sensor name>')}`: `sensor_msgs/msg/PointCloud2` per sensor and frame (empty ones too),",
-        f"  frame `{WORLD_FRAME}`, {SIMGEN_LAYOUT.step}-byte little-endian points; the first {LIVOX_LAYOUT.step} bytes are",
-        "  livox_ros_driver2's point (`LivoxPointXyzrtlt`), but in the pitch frame, not the sensor's; read the fields by",
-        "  name. `simgen export --ros2-layout livox` writes the driver's exact 26-byte point in each sensor's frame.",
+        f"  frame `{WORLD_FRAME}`, {SIMGEN_LAYOUT.step}-byte little-endian points; the first {LIVOX_LAYOUT.step} "
+        "bytes are",
+        "  livox_ros_driver2's point (`LivoxPointXyzrtlt`), but in the pitch frame, not the sensor's; read the fields "
+        "by",
+        "  name. `simgen export --ros2-layout livox` writes the driver's exact 26-byte point in each sensor's frame;",
+        "  `livox-custom`, `livox-v1` and `livox-v1-custom` a message per lidar unit as Livox's drivers publish them.",
         "",
         "| field | offset | type | meaning |",
         "| --- | --- | --- | --- |",
@@ -466,10 +653,13 @@ def card_lines() -> list[str]:
         "  humanoid a CUBE (namespace `boxes`, id = track id, `text` = class) and a TEXT_VIEW_FACING track id; a",
         "  humanoid the engine placed for a restart (`discontinuity`) also a TEXT_VIEW_FACING `placed` (namespace",
         f"  `{DISCONTINUITY_NAMESPACE}`, id = track id).",
-        f"- `{TF_STATIC_TOPIC}`: `tf2_msgs/msg/TFMessage` at the first frame's stamp, `{WORLD_FRAME}` -> each sensor's name (its pose).",
+        f"- `{TF_STATIC_TOPIC}`: `tf2_msgs/msg/TFMessage` at the first frame's stamp, `{WORLD_FRAME}` -> each "
+        "sensor's name (its pose).",
         "",
-        "Each channel carries rosbag2's `offered_qos_profiles` metadata, which `ros2 bag play` offers again: all reliable;",
+        "Each channel carries rosbag2's `offered_qos_profiles` metadata, which `ros2 bag play` offers again: all "
+        "reliable;",
         f"points {qos['points']} (keep last {QOS_PROFILES['points'][0]}, as livox_ros_driver2 publishes), boxes"
-        f" {qos[BOXES_TOPIC]}, `{TF_STATIC_TOPIC}` {qos[TF_STATIC_TOPIC].replace('_', ' ')} (keep last 1, as tf2's static",
+        f" {qos[BOXES_TOPIC]}, `{TF_STATIC_TOPIC}` {qos[TF_STATIC_TOPIC].replace('_', ' ')} (keep last 1, as tf2's "
+        "static",
         "broadcaster), so RViz and tf2 get the sensor poses whenever they subscribe.",
     ]

@@ -67,12 +67,24 @@ def val_clips(clip_indices: Sequence[int]) -> set[int]:
     return set(ordered[-max(1, round(VAL_FRACTION * len(ordered))) :])
 
 
-def write_image_sets(root: Path, clips: Sequence[ClipRecord]) -> list[FileRecord]:
-    """IMAGE_SETS, train.txt, val.txt and trainval.txt: sample names, split by clip."""
+def val_frames(frames: int) -> int:
+    """Frames of a dataset's one clip in the ImageSets' val split: its last VAL_FRACTION (at least one of two or
+    more), so that OpenPCDet's evaluation, which indexes the first val sample, has one."""
+    return max(1, round(VAL_FRACTION * frames)) if frames > 1 else 0
+
+
+def split_samples(clips: Sequence[ClipRecord]) -> dict[str, list[str]]:
+    """Sample names of the `train` and `val` splits: by clip (one clip: its last `val_frames` are val)."""
     val = val_clips([c.clip_index for c in clips])
-    names = {
-        split: [sample_name(c.clip_index, i) for c in clips if (c.clip_index in val) == (split == "val") for i in range(c.frames)]
-        for split in ("train", "val")
-    }
+    samples = [(c.clip_index in val, sample_name(c.clip_index, i)) for c in clips for i in range(c.frames)]
+    if len(clips) == 1:
+        first_val = clips[0].frames - val_frames(clips[0].frames)
+        samples = [(i >= first_val, name) for i, (_, name) in enumerate(samples)]
+    return {split: [name for in_val, name in samples if in_val == (split == "val")] for split in ("train", "val")}
+
+
+def write_image_sets(root: Path, clips: Sequence[ClipRecord]) -> list[FileRecord]:
+    """IMAGE_SETS, train.txt, val.txt and trainval.txt: the sample names of `split_samples`."""
+    names = split_samples(clips)
     names["trainval"] = sorted(names["train"] + names["val"])
     return [write_text(root, f"ImageSets/{split}.txt", lines) for split, lines in names.items()]

@@ -36,7 +36,7 @@ def coverage_table(heads: list[HeadQA]) -> Table:
             mine = [h.comparison.coverage[cell][0][k] for h in heads]
             ref = first.coverage[cell][1][k]
             worst = max((m - ref for m in mine), key=abs) * 100
-            rows.append((f"{cell:g}", f"{t:g}", *(f"{m:.2%}" for m in mine), f"{ref:.2%}", f"{worst:+.2f}"))
+            rows.append((f"{cell:g}", f"{t:g}", *(f"{m:.2%}" for m in mine), f"{ref:.2%}", f"{worst:+z.2f}"))
     return Table(
         ("cell, deg", "T, s", *_heads_columns(heads), f"official {heads[0].reference}", "largest difference, points"),
         tuple(rows),
@@ -51,7 +51,7 @@ def radial_table(heads: list[HeadQA]) -> Table:
         worst = (
             max((m / ref.shots_per_sr_s[k] - 1 for m in mine), key=abs) if ref.shots_per_sr_s[k] > 0 else float("nan")
         )
-        rows.append((f"{rho:g}", *(f"{m:,.0f}" for m in mine), f"{ref.shots_per_sr_s[k]:,.0f}", f"{worst:+.2%}"))
+        rows.append((f"{rho:g}", *(f"{m:,.0f}" for m in mine), f"{ref.shots_per_sr_s[k]:,.0f}", f"{worst:+z.2%}"))
     return Table(("off-axis, deg", *_heads_columns(heads), f"official {heads[0].reference}", "largest difference"),
                  tuple(rows))
 
@@ -146,7 +146,7 @@ def _frames_table(qa: DatasetQA) -> Table:
     if c.shots is not None:
         for name, values in (("shots per frame", c.shots), ("dropped, % of shots", c.dropped / c.shots * 100),
                              ("missed, % of shots", c.missed / c.shots * 100)):
-            rows.append((name, f"{values.mean():,.2f}", f"{values.min():,.2f}", f"{values.max():,.2f}"))
+            rows.append((name, f"{values.mean():z,.2f}", f"{values.min():z,.2f}", f"{values.max():z,.2f}"))
     return Table(("per frame", "mean", "min", "max"), tuple(rows))
 
 

@@ -112,7 +112,7 @@ def dataset_checks(dataset: Dataset, counts: FrameCounts, tol: DatasetTolerances
     sensors = dataset.manifest.sensors
     expected = sum(s.shots_per_s for s in sensors) / sensors[0].frame_rate_hz
     worst = float(np.max(np.abs(counts.shots - expected)) / expected)
-    checks.append(Check("dataset", "shots per frame", f"{worst:.3%} from {expected:,.0f} at worst",
+    checks.append(Check("dataset", "shots per frame", f"{worst:z.3%} from {expected:,.0f} at worst",
                         f"<= {tol.shots_per_frame_rel:.1%}", worst <= tol.shots_per_frame_rel))
     noise = dataset.manifest.scenario.get("noise", {})
     want = float(noise.get("dropout", 0.0)) if noise.get("enabled", True) else 0.0

@@ -42,19 +42,19 @@ def box_problems(frame: Frame, locate: Locate, tol: LabelTolerances) -> list[Pro
             if not tol.min_box_size_m <= value <= tol.max_box_size_m:
                 problems.append(
                     Problem(
-                        file, row, f"box {name} {value:.3f} m outside {tol.min_box_size_m:g}-{tol.max_box_size_m:g} m"
+                        file, row, f"box {name} {value:z.3f} m outside {tol.min_box_size_m:g}-{tol.max_box_size_m:g} m"
                     )
                 )
         if abs(x) > HALF_LENGTH_M + tol.pitch_margin_m or abs(y) > HALF_WIDTH_M + tol.pitch_margin_m:
             problems.append(
                 Problem(
-                    file, row, f"box centre ({x:.2f}, {y:.2f}) m is off the pitch grown by {tol.pitch_margin_m:g} m"
+                    file, row, f"box centre ({x:z.2f}, {y:z.2f}) m is off the pitch grown by {tol.pitch_margin_m:g} m"
                 )
             )
         if z - size[2] / 2 < -GROUND_SLACK_M:
-            problems.append(Problem(file, row, f"box bottom at z = {z - size[2] / 2:.3f} m, under the ground"))
+            problems.append(Problem(file, row, f"box bottom at z = {z - size[2] / 2:z.3f} m, under the ground"))
         if not -np.pi - 1e-6 <= yaw <= np.pi + 1e-6:
-            problems.append(Problem(file, row, f"yaw {yaw:.3f} rad outside [-pi, pi]"))
+            problems.append(Problem(file, row, f"yaw {yaw:z.3f} rad outside [-pi, pi]"))
     return problems
 
 
@@ -124,7 +124,7 @@ def count_problems(
                 Problem(
                     file,
                     row,
-                    f"{plural(int(inside.sum()), 'point')} inside the box (grown by {grow:.2f} m), num_points is "
+                    f"{plural(int(inside.sum()), 'point')} inside the box (grown by {grow:z.2f} m), num_points is "
                     f"{stored}",
                 )
             )

@@ -75,24 +75,24 @@ def pattern_checks(
     rate = 1.0 / load_pattern_file(reference).dt_s
     rate_rel = round((head.shots_per_s - rate) / rate, 9) + 0.0  # no -0.00 % from the file's float time steps
     checks = [
-        Check(subject, "shot rate", f"{rate_rel:+.2%} ({head.shots_per_s:,.0f} vs {rate:,.0f} /s)",
+        Check(subject, "shot rate", f"{rate_rel:+z.2%} ({head.shots_per_s:,.0f} vs {rate:,.0f} /s)",
               f"<= {tol.shot_rate_rel:.2%}", abs(rate_rel) <= tol.shot_rate_rel)
     ]
     for cell, (a, b) in c.coverage.items():
         i, diff = _worst(a * 100.0, b * 100.0, relative=False)
         checks.append(Check(subject, f"coverage, {cell:g} deg cells",
-                            f"{diff:+.2f} points at T = {c.times_s[i]:g} s ({a[i]:.2%} vs {b[i]:.2%})",
+                            f"{diff:+z.2f} points at T = {c.times_s[i]:g} s ({a[i]:.2%} vs {b[i]:.2%})",
                             f"<= {tol.coverage_points:g} points", abs(diff) <= tol.coverage_points))
     a, b = (p.shots_per_sr_s for p in c.radial)
     i, diff = _worst(a, b, relative=True)
     where = "off-axis" if head.fov_box_deg is None else "elevation"
-    checks.append(Check(subject, "radial density", f"{diff:+.2%} at {c.radial[0].off_axis_deg[i]:g} deg {where}",
+    checks.append(Check(subject, "radial density", f"{diff:+z.2%} at {c.radial[0].off_axis_deg[i]:g} deg {where}",
                         f"<= {tol.radial_density_rel:.0%}", abs(diff) <= tol.radial_density_rel))
     a, b = c.target_points
     i, diff = _worst(a, b, relative=True)
     r, off = c.targets[i]
     checks.append(Check(subject, "points per frame on a 0.5 x 1.8 m target",
-                        f"{diff:+.2%} at {r:g} m, {off:g} deg ({a[i]:.2f} vs {b[i]:.2f})",
+                        f"{diff:+z.2%} at {r:g} m, {off:g} deg ({a[i]:.2f} vs {b[i]:.2f})",
                         f"<= {tol.target_points_rel:.0%}", abs(diff) <= tol.target_points_rel))
     return checks
 

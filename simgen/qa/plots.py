@@ -22,7 +22,23 @@ DPI = 100
 REFERENCE_STYLE = {"color": "black", "linestyle": "--", "linewidth": 1.6}
 
 
+def fit_titles(fig) -> None:
+    """Wrap the figure's titles (its own, `fig.texts`, and its axes') at spaces until each lies inside the figure."""
+    fig.canvas.draw()  # lays the figure out, so that the titles stand where they will be drawn
+    renderer = fig.canvas.get_renderer()
+    right = fig.bbox.width
+    for text in [*fig.texts, *(ax.title for ax in fig.axes)]:
+        lines: list[str] = []
+        for word in text.get_text().split(" "):
+            candidate = [*lines[:-1], f"{lines[-1]} {word}"] if lines else [word]
+            text.set_text("\n".join(candidate))
+            extent = text.get_window_extent(renderer)
+            lines = candidate if (extent.x0 >= 0 and extent.x1 <= right) or not lines else [*lines, word]
+        text.set_text("\n".join(lines))
+
+
 def _save(fig, path: Path) -> None:
+    fit_titles(fig)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png", dpi=DPI)
     plt.close(fig)

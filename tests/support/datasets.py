@@ -40,6 +40,25 @@ def sensors() -> list[Sensor]:
     ]
 
 
+def mid40() -> Sensor:
+    """A second sensor for `sensors()`' Mid-100: a Mid-40 (one head) across the pitch."""
+    return Sensor(1, "mid40", "mid40-risley", (10.0, 36.0, 6.0, 0.0, -15.0, -90.0), get_sensor("mid40-risley").heads,
+                  100_000.0, FRAME_RATE_HZ, 1, 1.0)
+
+
+def with_mid40(frames: list[LabelledFrame], every: int) -> list[LabelledFrame]:
+    """`frames` with every `every`-th point the Mid-40's (sensor 1, head 0), the rest still the Mid-100's."""
+    import dataclasses
+
+    out = []
+    for frame in frames:
+        theirs = np.arange(len(frame.scan.points_m)) % every == 0
+        head = np.where(theirs, 0, frame.scan.head)
+        scan = dataclasses.replace(frame.scan, sensor=theirs.astype(np.uint8), head=head)
+        out.append(dataclasses.replace(frame, scan=scan))
+    return out
+
+
 def _teams(humanoids: int) -> tuple[np.ndarray, np.ndarray]:
     officials = min(3, humanoids)
     players = humanoids - officials

@@ -52,6 +52,7 @@ class Carries:
     track_ids: bool  # each box's track id (and its discontinuity flag)
     point_fields: bool  # each point's sensor, shot time, laser line and instance id (Parquet also its head and sweep)
     point_counts: bool  # each box's stored number of points
+    units: bool = False  # each point's lidar unit: its sensor and head (`simgen.datasets.units`)
 
 
 class DatasetFormat(ABC):

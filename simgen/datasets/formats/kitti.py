@@ -11,7 +11,13 @@ from simgen.datasets import kitti_camera as camera
 from simgen.datasets.formats.base import Carries, DatasetFormat, Locate
 from simgen.datasets.manifest import ClipEntry, Manifest
 from simgen.datasets.records import ClipRecord, FileRecord
-from simgen.datasets.samples import IMAGE_SETS, INTENSITY_SCALE, MAX_FRAMES_PER_CLIP, write_image_sets
+from simgen.datasets.samples import (
+    IMAGE_SETS,
+    INTENSITY_SCALE,
+    MAX_FRAMES_PER_CLIP,
+    VAL_FRACTION,
+    write_image_sets,
+)
 
 
 def _with_images(scenario: Mapping) -> bool:
@@ -55,7 +61,8 @@ class Kitti(DatasetFormat):
             f"- `training/velodyne/NNNNNN.bin`: NNNNNN = clip index x {MAX_FRAMES_PER_CLIP} + frame index",
             "- `training/label_2/NNNNNN.txt`: `type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry`",
             "- `training/calib/NNNNNN.txt`: KITTI object calib (`P0:`-`P3:`, `R0_rect:`, `Tr_velo_to_cam:`, `Tr_imu_to_velo:`)",
-            "- `ImageSets/train.txt`, `val.txt`, `trainval.txt`: sample numbers, split by clip",
+            "- `ImageSets/train.txt`, `val.txt`, `trainval.txt`: sample numbers, split by clip (a dataset of one clip:",
+            f"  its last {VAL_FRACTION:.0%} of frames are `val`, so that OpenPCDet's evaluation has a sample)",
         ]
         if images:
             files.append("- `training/image_2/NNNNNN.png`: blank placeholders of the virtual camera's nominal size (1-bit PNG),"

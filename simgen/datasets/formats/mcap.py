@@ -1,5 +1,5 @@
-"""The `mcap` format: a ROS 2 bag in MCAP per clip, `<clip id>.mcap` (`simgen.datasets.ros2_bag`, whose
-mcap and rosbags imports wait until a bag is written or read)."""
+"""The `mcap` format: a ROS 2 bag per clip, the directory `<clip id>/` with `<clip id>.mcap` and rosbag2's
+`metadata.yaml` (`simgen.datasets.ros2_bag`, whose mcap and rosbags imports wait until a bag is written or read)."""
 
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ class Mcap(DatasetFormat):
         return ros2_bag.BagReader(files, manifest)
 
     def clip_files(self, entry: ClipEntry) -> set[str]:
-        return {ros2_bag.bag_path(entry.clip)}
+        return {ros2_bag.bag_path(entry.clip), ros2_bag.bag_metadata_path(entry.clip)}
 
     def listed_rows_problem(self, entry: ClipEntry, listed: Mapping[str, FileRecord], sensors: int) -> str | None:
         rows = listed[ros2_bag.bag_path(entry.clip)].rows

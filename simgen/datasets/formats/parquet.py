@@ -43,7 +43,7 @@ def _schema_rows(schema: pa.Schema) -> list[list]:
 
 class Parquet(DatasetFormat):
     name = "parquet"
-    carries = Carries(track_ids=True, point_fields=True, point_counts=True)
+    carries = Carries(track_ids=True, point_fields=True, point_counts=True, units=True)
     packable = True
 
     def stream(self, root, clip, clip_index, sensors):
