@@ -28,6 +28,10 @@ def register(subparsers) -> None:
         "OUT/plots/*.png (heatmaps over the pitch per rig and per sensor, the rigs side by side) and OUT/RIG.csv "
         "(a row per cell). Each rig passes when a standing player gets --min-points points per frame on at least "
         "--min-share %% of the --area's cells (pitch: the whole pitch; paper: the paper's [-40, 40] m box). "
+        "With --candidates FILE --sensors K and one SCENARIO: render every candidate mounting of the file's one "
+        "sensor model alone on the grid, pick K greedily on that target (the share of the --area's cells where a "
+        "standing player gets --min-points), write the picked rig as OUT/NAME_pickK.yaml (the SCENARIO with those "
+        "sensors) and report it beside the SCENARIO's own rig. "
         "Exit code 0: every rig passes; 1: one does not; 2: bad input.",
     )
     parser.add_argument("scenarios", type=Path, nargs="+", metavar="SCENARIO",
@@ -47,6 +51,9 @@ def register(subparsers) -> None:
                         help="clips of the scenario's match to render (default 1; 0: no match)")
     parser.add_argument("--match-frames", type=int, metavar="N",
                         help="frames of each match clip (default: the scenario's frames per clip)")
+    parser.add_argument("--candidates", type=Path, metavar="FILE",
+                        help="candidate mountings of one sensor model (YAML; see scenarios/candidates/)")
+    parser.add_argument("--sensors", type=int, metavar="K", help="sensors to pick from --candidates")
     parser.set_defaults(func=run)
 
 
@@ -64,6 +71,44 @@ def _check_arguments(args) -> None:
         raise UserError(f"--match-clips {args.match_clips}: must lie in [0, 100]")
     if args.match_frames is not None and not 1 <= args.match_frames <= 100_000:
         raise UserError(f"--match-frames {args.match_frames}: must lie in [1, 100000]")
+    if (args.candidates is None) != (args.sensors is None):
+        raise UserError("--candidates and --sensors go together")
+    if args.candidates is not None and len(args.scenarios) != 1:
+        raise UserError(f"--candidates takes one SCENARIO (the rig's scan, noise and match), got {len(args.scenarios)}")
+
+
+def _candidates(args) -> tuple:
+    """The preset and candidates of --candidates, with --sensors checked against them."""
+    from annotated_types import MaxLen
+
+    from simgen.coverage.candidates import load_candidates
+    from simgen.scenario import Scenario
+
+    preset, candidates = load_candidates(args.candidates)
+    most = next(m.max_length for m in Scenario.model_fields["sensors"].metadata if isinstance(m, MaxLen))
+    if not 1 <= args.sensors <= min(len(candidates), most):
+        raise UserError(f"--sensors {args.sensors}: must lie in [1, {min(len(candidates), most)}] "
+                        f"({len(candidates)} candidates, at most {most} sensors in a scenario)")
+    return preset, candidates
+
+
+def _picked(args, scenario, preset, candidates, headings):
+    """The scenario with the sensors picked from the candidates, its YAML written to the report directory."""
+    import yaml
+    from tqdm import tqdm
+
+    from simgen.atomic import atomic_path
+    from simgen.coverage.candidates import pick_rig
+    from simgen.coverage.grid import pitch_grid
+    from simgen.coverage.summary import in_area
+
+    cells = in_area(pitch_grid(args.step).centres_m, args.area)
+    with tqdm(total=len(candidates), unit="candidate", desc="candidates", dynamic_ncols=True) as bar:
+        picked = pick_rig(scenario, preset, candidates, args.sensors, args.step, headings, cells, args.min_points,
+                          lambda done, total: bar.update(done - bar.n))
+    with atomic_path(args.output / f"{picked.name}.yaml") as tmp:
+        tmp.write_text(yaml.safe_dump(picked.model_dump(mode="json"), sort_keys=False), encoding="utf-8")
+    return picked
 
 
 def _output_dir(out: Path) -> bool:
@@ -105,8 +150,12 @@ def run(args) -> int:
                 raise UserError(f"{path}: {error}") from None
     headings = np.arange(args.headings) * 360.0 / args.headings
     target = Target(args.min_points, args.area, args.min_share / 100)
+    if args.candidates is not None:  # a bad file or K is one line before anything is written
+        preset, candidates = _candidates(args)
     created = _output_dir(args.output)
     try:
+        if args.candidates is not None:
+            scenarios.append(_picked(args, scenarios[0], preset, candidates, headings))
         rigs = []
         for scenario in scenarios:
             with tqdm(unit="frame", desc=f"{scenario.name}: standing grid", dynamic_ncols=True) as bar:
