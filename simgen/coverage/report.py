@@ -234,6 +234,18 @@ def write_csv(rig: RigCoverage, path: Path) -> None:
                              *(f"{m[c]:.3f}" for m in sensor_means)])
 
 
+def write_match_csv(match: MatchCoverage, path: Path) -> None:
+    """One row per player-frame of the match: where the player stood, distance to the nearest sensor, points of
+    the rig and of each sensor."""
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["x_m", "y_m", "distance_m", "points", *(f"{name}_points" for name in match.sensor_names)])
+        for position, distance, rig, points in zip(match.position_m, match.distance_m, match.rig_points,
+                                                   match.points):
+            writer.writerow([f"{position[0]:.2f}", f"{position[1]:.2f}", f"{distance:.2f}", str(rig),
+                             *map(str, points)])
+
+
 def coverage_report(rigs: list[RigCoverage], target: Target, out_dir: Path) -> Report:
     """Plots and CSVs written into out_dir; the report's page to write with `simgen.qa.report.write_report`."""
     checks = tuple(check(rig, target) for rig in rigs)
@@ -252,8 +264,11 @@ def coverage_report(rigs: list[RigCoverage], target: Target, out_dir: Path) -> R
     ]
     for rig in rigs:
         write_csv(rig, out_dir / f"{rig.name}.csv")
-        match = "" if rig.match is None else (f" The match: {rig.match.clips} clip(s) x {rig.match.frames} frames, "
-                                              f"{len(rig.match.rig_points)} player-frames.")
+        match = ""
+        if rig.match is not None:
+            write_match_csv(rig.match, out_dir / f"{rig.name}_match.csv")
+            match = (f" The match: {rig.match.clips} clip(s) x {rig.match.frames} frames, "
+                     f"{len(rig.match.rig_points)} player-frames: {rig.name}_match.csv.")
         sections.append(Section(
             f"Rig {rig.name}",
             f"{len(rig.sensors)} sensor(s): " + "; ".join(
