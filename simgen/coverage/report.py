@@ -84,20 +84,28 @@ def _pitch_lines_m() -> list[NDArray[np.float64]]:
     ]
 
 
-def _heatmap(ax, x_edges: NDArray, y_edges: NDArray, values: NDArray, sensors_xy: NDArray, title: str):
-    """Values (X, Y) over the pitch on `ax`, with its lines and the sensors; returns the mesh for a colour bar."""
+def _heatmap(ax, x_edges: NDArray, y_edges: NDArray, values: NDArray, sensors_xy: NDArray, title: str,
+             limits: tuple[float, float, float, float]):
+    """Values (X, Y) over the pitch on `ax`, with its lines and the sensors, within limits (x0, x1, y0, y1);
+    returns the mesh for a colour bar."""
     norm = BoundaryNorm(LEVELS, plt.get_cmap("viridis").N, extend="max")
     mesh = ax.pcolormesh(x_edges, y_edges, np.ma.masked_invalid(values).T, cmap="viridis", norm=norm)
     for line in _pitch_lines_m():
         ax.plot(line[:, 0], line[:, 1], color="white", linewidth=0.7)
     ax.plot(sensors_xy[:, 0], sensors_xy[:, 1], "r^", markersize=7, markeredgecolor="black")
     ax.set_aspect("equal")
-    ax.set_xlim(min(-HALF_LENGTH_M, sensors_xy[:, 0].min()) - 3, max(HALF_LENGTH_M, sensors_xy[:, 0].max()) + 3)
-    ax.set_ylim(min(-HALF_WIDTH_M, sensors_xy[:, 1].min()) - 3, max(HALF_WIDTH_M, sensors_xy[:, 1].max()) + 3)
+    ax.set_xlim(*limits[:2])
+    ax.set_ylim(*limits[2:])
     ax.set_title(title, fontsize=9)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     return mesh
+
+
+def _limits(sensors_xy: NDArray) -> tuple[float, float, float, float]:
+    """The pitch and the sensors (S, 2), with 3 m round them."""
+    return (min(-HALF_LENGTH_M, sensors_xy[:, 0].min()) - 3, max(HALF_LENGTH_M, sensors_xy[:, 0].max()) + 3,
+            min(-HALF_WIDTH_M, sensors_xy[:, 1].min()) - 3, max(HALF_WIDTH_M, sensors_xy[:, 1].max()) + 3)
 
 
 def _edges(centres: NDArray, step: float) -> NDArray[np.float64]:
@@ -119,9 +127,10 @@ def _panels(panels: list[tuple[NDArray, NDArray, NDArray, NDArray, str]], path: 
     columns = min(2, len(panels))
     rows = -(-len(panels) // columns)
     fig, axes = plt.subplots(rows, columns, figsize=(6.4 * columns, 4.4 * rows), squeeze=False)
+    limits = _limits(np.concatenate([panel[3] for panel in panels]))  # the same in every panel
     mesh = None
     for ax, panel in zip(axes.flat, panels):
-        mesh = _heatmap(ax, *panel)
+        mesh = _heatmap(ax, *panel, limits)
     for ax in list(axes.flat)[len(panels):]:
         ax.axis("off")
     fig.colorbar(mesh, ax=axes, label=label, shrink=0.8, extend="max")
