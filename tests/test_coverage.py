@@ -111,11 +111,15 @@ def test_bad_input_is_one_line_and_writes_nothing(tmp_path):
         "K > candidates": [paper, "--candidates", two, "--sensors", "3"],
         "no sensor": [no_sensor],
         "headings 0": [paper, "--headings", "0"],
+        "0.25 m in 16 headings": [paper, "--step", "0.25", "--headings", "16"],
     }
     for what, arguments in cases.items():
         out = tmp_path / "out"
         assert_one_line_refusal(*run_main(main, "coverage", *arguments, "-o", out, "--match-clips", "0"), what)
         assert not out.exists(), what
+    whole_match = [ROOT / "scenarios/full_match.yaml", "--match-clips", "1"]  # 54,000 frames of match in memory
+    assert_one_line_refusal(*run_main(main, "coverage", *whole_match, "-o", tmp_path / "out"), "a whole match")
+    assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.engine

@@ -12,6 +12,7 @@ from simgen.errors import UserError
 DEFAULT_STEP_M = 1.0
 DEFAULT_HEADINGS = 4
 DEFAULT_MIN_POINTS = 5.0
+MAX_MATCH_FRAMES = 50_000  # frames of the match over all clips: 1.1 million player-frames kept in memory
 
 
 def register(subparsers) -> None:
@@ -58,11 +59,9 @@ def register(subparsers) -> None:
 
 
 def _check_arguments(args) -> None:
-    from simgen.coverage.grid import MAX_HEADINGS, pitch_grid
+    from simgen.coverage.grid import checked_grid
 
-    pitch_grid(args.step)  # refuses a bad step
-    if not 1 <= args.headings <= MAX_HEADINGS:
-        raise UserError(f"--headings {args.headings}: must lie in [1, {MAX_HEADINGS}]")
+    checked_grid(args.step, args.headings)
     if not 0 <= args.min_points <= 10_000:
         raise UserError(f"--min-points {args.min_points:g}: must lie in [0, 10000]")
     if not 0 < args.min_share <= 100:
@@ -148,6 +147,11 @@ def run(args) -> int:
                 check_level(scenario.motion.level)
             except UserError as error:
                 raise UserError(f"{path}: {error}") from None
+    for path, scenario in zip(args.scenarios, scenarios):
+        frames = args.match_clips * min(args.match_frames or scenario.frames_per_clip(), scenario.frames_per_clip())
+        if frames > MAX_MATCH_FRAMES:
+            raise UserError(f"{path}: {args.match_clips} match clip(s) of {frames // args.match_clips:,} frames, "
+                            f"more than {MAX_MATCH_FRAMES:,} frames in all (lower --match-clips or --match-frames)")
     headings = np.arange(args.headings) * 360.0 / args.headings
     target = Target(args.min_points, args.area, args.min_share / 100)
     if args.candidates is not None:  # a bad file or K is one line before anything is written

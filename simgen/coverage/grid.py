@@ -38,6 +38,7 @@ PATTERN_BYTES = 256 << 20  # memory the cycled frames' rays may take
 PARKED_Z_M = -50.0  # unused humanoids of a frame stand here, under the ground no ray goes past
 MIN_STEP_M, MAX_STEP_M = 0.25, 34.0  # grid steps allowed (0.25 m: 114,240 cells)
 MAX_HEADINGS = 16
+MAX_PLAYERS = 120_000  # standing players (cells x headings) of one grid: a 1 m grid in 16 headings, 0.25 m in one
 GRID_STREAM = 39  # SeedSequence key of the grid's noise, apart from any dataset's clips
 
 
@@ -85,6 +86,19 @@ def pitch_grid(step_m: float) -> PitchGrid:
         return -length / 2 + step_m / 2 + step_m * np.arange(max(1, math.floor(length / step_m + 1e-9)))
 
     return PitchGrid(step_m, centres(PITCH_LENGTH_M), centres(PITCH_WIDTH_M))
+
+
+def checked_grid(step_m: float, headings: int) -> PitchGrid:
+    """The grid, after refusing a step, a number of headings or their product (the players to render, which
+    bound memory and time) outside the limits."""
+    grid = pitch_grid(step_m)
+    if not 1 <= headings <= MAX_HEADINGS:
+        raise UserError(f"--headings {headings}: must lie in [1, {MAX_HEADINGS}]")
+    players = len(grid.x_m) * len(grid.y_m) * headings
+    if players > MAX_PLAYERS:
+        raise UserError(f"--step {step_m:g} m in {headings} headings: {players:,} standing players to render, more "
+                        f"than {MAX_PLAYERS:,} (raise --step or lower --headings)")
+    return grid
 
 
 def azimuth_bins(centres_m: NDArray, sensors_xy_m: NDArray) -> tuple[NDArray[np.int64], NDArray[np.int64], int]:
@@ -182,8 +196,8 @@ def grid_coverage(
 ) -> GridCoverage:
     """Render a standing player at every cell of the grid, once per heading, with the scenario's sensors, scan,
     noise and static scene; `progress(done, total)` is told of each frame."""
-    grid = pitch_grid(step_m)
     headings_deg = np.asarray(headings_deg, np.float64)
+    grid = checked_grid(step_m, len(headings_deg))
     sensors = scenario_sensors(scenario)
     centres = grid.centres_m
     batch = batches(centres, sensors)
