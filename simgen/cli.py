@@ -15,7 +15,9 @@ import sys
 from simgen import __version__
 from simgen.errors import UserError
 
-COMMANDS = ("capture", "generate", "validate", "pattern", "qa", "view", "verify", "export", "pack", "unpack")
+COMMANDS = (
+    "capture", "generate", "validate", "pattern", "qa", "coverage", "view", "verify", "export", "pack", "unpack"
+)
 #: What the disk or the file system can refuse any command that writes: one line and exit 2, not a traceback.
 DISK_ERRORS = {
     errno.ENOSPC: "no space left on the device",

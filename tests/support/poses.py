@@ -1,11 +1,10 @@
 """Synthetic humanoid keypoints from joint angles, for tests, benchmarks and scripts/measure_box_margins.py.
 
-The skeleton is the football engine's: its segment lengths are the same for every humanoid
-and every frame of a captured clip (tests/fixtures/motion_smoke.parquet), and are copied
-here. In it `middle` sits 0.16 m above the centre of the hip joints, on the lower spine, and
-the shoulders almost level with the neck. Built in the body frame (x forward, y left, z up),
-then turned by a yaw about z and placed on the pitch; the lowest ankle stands
-`ANKLE_HEIGHT_M` above the ground (plus `Pose.lift_m` for a jump).
+The skeleton is the football engine's (`simgen.body.standing`): its segment lengths are the same for
+every humanoid and every frame of a captured clip (tests/fixtures/motion_smoke.parquet). In it `middle`
+sits 0.16 m above the centre of the hip joints, on the lower spine, and the shoulders almost level with
+the neck. Built in the body frame (x forward, y left, z up), then turned by a yaw about z and placed on
+the pitch; the lowest ankle stands `ANKLE_HEIGHT_M` above the ground (plus `Pose.lift_m` for a jump).
 """
 
 from __future__ import annotations
@@ -15,18 +14,19 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from simgen.body.standing import (  # the engine's skeleton (segment lengths)
+    ANKLE_HEIGHT_M,
+    HIP_HALF_WIDTH_M,
+    MIDDLE_ABOVE_HIPS_M,
+    SHIN_M,
+    SHOULDER_BEHIND_NECK_M,
+    SHOULDER_BELOW_NECK_M,
+    SHOULDER_HALF_WIDTH_M,
+    SPINE_M,
+    THIGH_M,
+    UPPER_ARM_M,
+)
 from simgen.vocab import KEYPOINT_INDEX, NUM_KEYPOINTS
-
-ANKLE_HEIGHT_M = 0.09  # ankle joint above the ground, standing (the clip's median when still)
-SHIN_M = 0.442  # knee -> ankle
-THIGH_M = 0.420  # hip -> knee
-HIP_HALF_WIDTH_M = 0.087  # centre of the hips -> hip joint
-MIDDLE_ABOVE_HIPS_M = 0.159  # centre of the hips -> middle, up
-SPINE_M = 0.501  # middle -> neck
-SHOULDER_HALF_WIDTH_M = 0.160  # spine -> shoulder joint, sideways
-SHOULDER_BELOW_NECK_M = 0.018  # along the spine
-SHOULDER_BEHIND_NECK_M = 0.025
-UPPER_ARM_M = 0.330  # shoulder -> elbow
 
 Pair = tuple[float, float]  # (left, right)
 

@@ -1,0 +1,1 @@
+"""Coverage of sensor rigs over the pitch, measured by rendering (`simgen coverage`)."""
