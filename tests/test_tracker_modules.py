@@ -1,9 +1,16 @@
-"""The accounting of the tracker's birth/death and split modules (train.evaluation.tracker_modules) on scripted clips."""
+"""The accounting of the tracker's birth/death and split modules (train.evaluation.tracker_modules), scripted clips."""
 
 import numpy as np
 
 from tests.support.trackers import BIRTH_DEATH, DIOU, FULL_TRACKER, shipped_tracker
-from train.evaluation.tracker_modules import ModuleCounts, box_labels, count_clip, count_modules
+from train.evaluation.tracker_modules import (
+    ClosePairs,
+    ModuleCounts,
+    box_labels,
+    close_pairs,
+    count_clip,
+    count_modules,
+)
 from train.tracking.tracker import Tracker
 from train.tracking.types import GroundTruthFrame, Tracklets
 
@@ -48,7 +55,7 @@ def test_a_false_tracklet_is_a_birth_held_back_and_a_duplicate_too():
 def test_a_missed_player_is_output_while_dying_and_recovered_on_himself():
     frames, truth = clip({1: at(0, 0), 2: at(10, 0)}, {1: set(range(FRAMES)) - {8, 9}}, {})
     counts = count_clip(Tracker(shipped_tracker(BIRTH_DEATH)), frames, truth)
-    assert (counts.dying_output, counts.dying_output_useful) == (2, 2)
+    assert (counts.dying_output, counts.dying_output_useful, counts.dying_output_off) == (2, 2, 0)
     assert (counts.dying_recovered, counts.recovered_same, counts.recovered_other, counts.dying_died) == (1, 1, 0, 0)
 
 
@@ -73,3 +80,12 @@ def test_a_tracker_without_birth_and_death_holds_nothing_back_and_counts_add_ove
     assert count_clip(Tracker(shipped_tracker(DIOU)), frames, truth) == ModuleCounts()
     once = count_clip(Tracker(shipped_tracker(BIRTH_DEATH)), frames, truth)
     assert count_modules(shipped_tracker(BIRTH_DEATH), [frames, frames], [truth, truth]) == once + once
+
+
+def test_close_pairs_tell_separate_fused_and_missed_players():
+    a, b, far = at(0, 0), at(0, 0.6), at(20, 0)
+    truth = [GroundTruthFrame(np.array([a, b, far]), np.array([1, 2, 3]))] * 4
+    shown = [[a, b], [at(0, 0.3)], [a], []]  # separate, fused at the midpoint, one alone, none
+    frames = [Tracklets(np.array([still(x) for x in boxes]).reshape(-1, 3, 7), np.full(len(boxes), 0.9))
+              for boxes in shown]
+    assert close_pairs(frames, truth) == ClosePairs(pairs=4, separate=1, fused=1, one=1, none=1)

@@ -10,12 +10,18 @@ frame by the confirmed tracks matched in it. Then:
   a player the birth rule kept from the output.
 - Births confirmed: tentative tracks confirmed, with the same three kinds at the frame they are confirmed.
 - Dying tracks (confirmed, unmatched, output at their prediction): each output frame is *useful* when its
-  box is on a label no matched track holds, else a false positive. A dying track that is matched again is
+  box is on a label no matched track holds, a *duplicate* when on a label one holds, *off* when on none (the
+  last two false positives). A dying track that is matched again is
   *recovered*: on the label it had at its last match (*same*), on another (*other*: an identity carried to
   another player), or with no label at either end (*unlabelled*); one that runs out of frames *dies*.
 - Splits: each pair of tracks the split module gave two boxes, per frame: *two players* when the two boxes
   lie on two different labels, *one player* when on one label (or one on a label, one on none), *none*
   otherwise.
+
+What the split module is for, in the tracklets themselves (``close_pairs``): pairs of labelled players within
+its window (centres 0.25-1.5 m apart at t), each *separate* (both on tracklets of their own), *fused* (one
+tracklet, on one of them, whose centre is nearer their midpoint than that player's: the paper's Fig. 4), *one*
+(one found, no fusion) or *none*.
 """
 
 from __future__ import annotations
@@ -29,6 +35,7 @@ from numpy.typing import NDArray
 from train.geometry import iou_3d
 from train.tracking.config import TrackerConfig
 from train.tracking.life_cycle import confirmed
+from train.tracking.split import SplitConfig
 from train.tracking.tracker import Tracker
 from train.tracking.types import GroundTruthFrame, Tracklets
 
@@ -50,6 +57,8 @@ class ModuleCounts:
     confirmed_real: int = 0
     dying_output: int = 0  # frames a dying track was output
     dying_output_useful: int = 0
+    dying_output_duplicate: int = 0
+    dying_output_off: int = 0
     dying_recovered: int = 0
     recovered_same: int = 0
     recovered_other: int = 0
@@ -121,8 +130,8 @@ def count_clip(tracker: Tracker, frames: Sequence[Tracklets], truth: Sequence[Gr
             if not is_matched:
                 dying.add(track)
                 add("dying_output")
-                if label != _NONE and label not in held_by_others:
-                    add("dying_output_useful")
+                add("dying_output_off" if label == _NONE else
+                    "dying_output_duplicate" if label in held_by_others else "dying_output_useful")
                 continue
             if track in dying:
                 dying.discard(track)
@@ -148,4 +157,43 @@ def count_modules(
     total = ModuleCounts()
     for frames, labelled in zip(clips, truth):
         total = total + count_clip(Tracker(config), frames, labelled)
+    return total
+
+
+@dataclass(frozen=True)
+class ClosePairs:
+    """Pair-frames of labelled players within the split module's window, by how the tracklets at t show them."""
+
+    pairs: int = 0
+    separate: int = 0
+    fused: int = 0
+    one: int = 0
+    none: int = 0
+
+    def __add__(self, other: ClosePairs) -> ClosePairs:
+        return ClosePairs(**{f.name: getattr(self, f.name) + getattr(other, f.name) for f in fields(self)})
+
+
+def close_pairs(frames: Sequence[Tracklets], truth: Sequence[GroundTruthFrame]) -> ClosePairs:
+    """How the tracklets at t (one clip, frame by frame) show the labelled players within the tracker's split
+    window (train.tracking.split.SplitConfig, as the tracker uses it)."""
+    config, total = SplitConfig(), ClosePairs()
+    for tracklets, labelled in zip(frames, truth):
+        boxes, centres = tracklets.boxes[:, -1], labelled.boxes[:, :2]
+        labels = box_labels(boxes, labelled)
+        gap = np.linalg.norm(centres[:, None] - centres[None], axis=-1)
+        first, second = np.nonzero(np.triu((gap >= config.min_pair_gap_m) & (gap <= config.max_pair_gap_m), 1))
+        counts = {"pairs": len(first)}
+        for a, b in zip(first.tolist(), second.tolist()):
+            found = [k for k in (a, b) if np.isin(labelled.ids[k], labels)]
+            if len(found) != 1:
+                kind = "separate" if found else "none"
+            else:
+                k = found[0]
+                mid = 0.5 * (centres[a] + centres[b])
+                on = boxes[labels == labelled.ids[k], :2]
+                fused = np.linalg.norm(on - mid, axis=1) < np.linalg.norm(on - centres[k], axis=1)
+                kind = "fused" if fused.any() else "one"
+            counts[kind] = counts.get(kind, 0) + 1
+        total = total + ClosePairs(**counts)
     return total

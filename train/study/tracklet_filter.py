@@ -14,18 +14,21 @@ thus compared at its own best input, not at another tracker's. The val clips are
 
 from __future__ import annotations
 
+import csv
 import functools
 import multiprocessing
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from itertools import product
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 from tqdm import tqdm
 
+from simgen.errors import UserError
 from train.detector.nms import nms_bev, nms_centre
 from train.evaluation.tracking import evaluate_tracking
 from train.tracking.clip import make_tracker, track_clip
@@ -69,6 +72,19 @@ def apply_filter(frames: Sequence[Tracklets], rule: TrackletFilter) -> list[Trac
     """A clip's tracklets, frame by frame, as the filter leaves them."""
     kept = [filter_tracklets(f.boxes, f.scores, rule) for f in frames]
     return [Tracklets(f.boxes[k], f.scores[k]) for f, k in zip(frames, kept)]
+
+
+def read_filters(path: Path) -> dict[str, TrackletFilter]:
+    """Tracker name -> the filter of GRID a study's table2.csv names for it (its `filtered` rows)."""
+    by_label = {rule.label: rule for rule in GRID}
+    try:
+        with open(path, newline="") as table:
+            rows = [r for r in csv.DictReader(table) if r.get("tracklets") == "filtered"]
+    except (OSError, UnicodeDecodeError, csv.Error) as error:
+        raise UserError(f"{path}: not a study's table2.csv ({error.__class__.__name__})") from None
+    if not rows or any(r.get("filter") not in by_label or not r.get("tracker") for r in rows):
+        raise UserError(f"{path}: not a study's table2.csv (no 'filtered' rows naming a filter of the grid)")
+    return {r["tracker"]: by_label[r["filter"]] for r in rows}
 
 
 @dataclass(frozen=True)
