@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,7 +41,13 @@ from train.tracking.tracker import Tracker
 from train.tracking.types import GroundTruthFrame, Tracklets
 
 MIN_IOU = 0.25
+_Counts = TypeVar("_Counts")
 _NONE = -1
+
+
+def _add_counts(a: _Counts, b: _Counts) -> _Counts:
+    """Two dataclasses of counts of one type, field by field."""
+    return type(a)(**{f.name: getattr(a, f.name) + getattr(b, f.name) for f in fields(a)})
 
 
 @dataclass(frozen=True)
@@ -69,8 +76,7 @@ class ModuleCounts:
     split_one_player: int = 0
     split_none: int = 0
 
-    def __add__(self, other: ModuleCounts) -> ModuleCounts:
-        return ModuleCounts(**{f.name: getattr(self, f.name) + getattr(other, f.name) for f in fields(self)})
+    __add__ = _add_counts
 
 
 def box_labels(boxes: NDArray[np.float64], truth: GroundTruthFrame) -> NDArray[np.int64]:
@@ -170,8 +176,7 @@ class ClosePairs:
     one: int = 0
     none: int = 0
 
-    def __add__(self, other: ClosePairs) -> ClosePairs:
-        return ClosePairs(**{f.name: getattr(self, f.name) + getattr(other, f.name) for f in fields(self)})
+    __add__ = _add_counts
 
 
 def close_pairs(frames: Sequence[Tracklets], truth: Sequence[GroundTruthFrame]) -> ClosePairs:
