@@ -223,6 +223,27 @@ def test_track_refuses_a_clip_the_dataset_lacks_in_one_line(study, tmp_path):
     assert "clip_0009" in stderr and not (tmp_path / "track").exists()
 
 
+def test_track_reads_a_studys_filters_and_refuses_bad_ones_in_one_line(study, tmp_path):
+    _, configs, datasets, out, _ = study
+    tracklets = out / "late" / "tracklets" / "clip_0001.npz"
+    common = ("--dataset", datasets / NAME, "--config", configs / "late.yaml", "--quiet")
+    code, _, stderr = run_main(main, "track", tracklets, *common, "-o", tmp_path / "given", "--filters-from",
+                               out / "table2.csv")
+    assert code == 0, stderr[-2000:]
+    given = {r["tracker"]: r["filter"] for r in csv.DictReader(open(tmp_path / "given" / "table2.csv"))
+             if r["tracklets"] == "filtered"}
+    assert given == {r["tracker"]: r["filter"] for r in csv.DictReader(open(out / "table2.csv"))
+                     if r["tracklets"] == "filtered"}
+    assert "## Choosing the tracklet filters" not in (tmp_path / "given" / "table2.md").read_text()
+    (tmp_path / "bad.csv").write_text("tracker,tracklets,filter\nAB3DMOT,filtered,no such filter\n")
+    for extra, said in (((("--filters-from", tmp_path / "bad.csv")), "not a study's table2.csv"),
+                        (("--filters-from", out / "table2.csv", "--choose-on", tracklets), "not both"),
+                        (("--filters-from", tmp_path / "missing.csv"), "missing.csv")):
+        code, stdout, stderr = run_main(main, "track", tracklets, *common, "-o", tmp_path / "bad", *extra)
+        assert_one_line_refusal(code, stdout, stderr, extra)
+        assert said in stderr and not (tmp_path / "bad").exists()
+
+
 def test_a_second_study_reuses_the_dataset_and_the_late_checkpoint(study):
     scenario, configs, datasets, out, _ = study
     code, _, stderr = run_study(
