@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import shutil
 
+import numpy as np
 import pytest
 import torch
 import yaml
@@ -13,7 +14,7 @@ import yaml
 import simgen.datasets
 from tests.support import ROOT
 from tests.support.detector import SMOKE, tiny_config
-from tests.support.hostile import run_main
+from tests.support.hostile import assert_one_line_refusal, run_main
 from tests.support.trackers import FULL_TRACKER
 from train.checkpoint import load_checkpoint
 from train.cli import main
@@ -174,7 +175,7 @@ def test_table2_has_every_tracker_at_both_ious(study):
     own = dict(line[2:-2].split(" | ")[:2] for line in own_table[:own_table.index("")])
     assert list(own) == names
     assert all(r["filter"] == own[r["tracker"]] for r in rows if r["tracklets"] == "filtered")
-    grid = lines[lines.index("| Filter | tracklets per frame (train) | " + " | ".join(names) + " |"):]
+    grid = lines[lines.index("| Filter | tracklets per frame | " + " | ".join(names) + " |"):]
     cells = [line[2:-2].split(" | ") for line in grid[2:] if line.startswith("| ")]
     for column, name in enumerate(names, start=2):
         bold = [row[0] for row in cells if row[column].startswith("**")]
@@ -190,6 +191,57 @@ def test_table2_has_every_tracker_at_both_ious(study):
     )
     assert all(int(r["n_gt"]) > 0 and int(r["tp"]) + int(r["fn"]) == int(r["n_gt"]) for r in rows)
     assert (out / "late" / "tracklets" / "clip_0001.npz").is_file()
+
+
+def test_track_scores_a_studys_tracklet_files_as_the_study_did(study, tmp_path):
+    """`simgen-train track` on the study's val tracklets: the same ground truth, so the unfiltered rows are the
+    study's; the filters are chosen on the tracked clip itself (said so), and the module accounting is there."""
+    _, configs, datasets, out, _ = study
+    tracklets = out / "late" / "tracklets" / "clip_0001.npz"
+    code, stdout, stderr = run_main(main, "track", tracklets, "--dataset", datasets / NAME,
+                                    "--config", configs / "late.yaml", "-o", tmp_path / "track", "--quiet")
+    assert code == 0, stderr[-2000:]
+    assert stdout.split() == [str(tmp_path / "track" / "table2.md"), str(tmp_path / "track" / "table2.csv")]
+    text = (tmp_path / "track" / "table2.md").read_text()
+    assert "chosen on the tracked clips themselves" in text and "Command: `simgen-train track " in text
+    assert f"| {FULL_TRACKER} | " in text.split("## What birth/death and split do")[1]
+    unfiltered = [{k: v for k, v in r.items() if k != "filter"}
+                  for r in csv.DictReader(open(out / "table2.csv")) if r["tracklets"] == "unfiltered"]
+    again = [{k: v for k, v in r.items() if k != "filter"}
+             for r in csv.DictReader(open(tmp_path / "track" / "table2.csv")) if r["tracklets"] == "unfiltered"]
+    assert again == unfiltered and unfiltered
+
+
+def test_track_refuses_a_clip_the_dataset_lacks_in_one_line(study, tmp_path):
+    _, configs, datasets, out, _ = study
+    stray = tmp_path / "stray.npz"
+    data = dict(np.load(out / "late" / "tracklets" / "clip_0001.npz"))
+    np.savez(stray, **{**data, "clip": np.str_("clip_0009")})
+    code, stdout, stderr = run_main(main, "track", stray, "--dataset", datasets / NAME,
+                                    "--config", configs / "late.yaml", "-o", tmp_path / "track", "--quiet")
+    assert_one_line_refusal(code, stdout, stderr, "stray clip")
+    assert "clip_0009" in stderr and not (tmp_path / "track").exists()
+
+
+def test_track_reads_a_studys_filters_and_refuses_bad_ones_in_one_line(study, tmp_path):
+    _, configs, datasets, out, _ = study
+    tracklets = out / "late" / "tracklets" / "clip_0001.npz"
+    common = ("--dataset", datasets / NAME, "--config", configs / "late.yaml", "--quiet")
+    code, _, stderr = run_main(main, "track", tracklets, *common, "-o", tmp_path / "given", "--filters-from",
+                               out / "table2.csv")
+    assert code == 0, stderr[-2000:]
+    given = {r["tracker"]: r["filter"] for r in csv.DictReader(open(tmp_path / "given" / "table2.csv"))
+             if r["tracklets"] == "filtered"}
+    assert given == {r["tracker"]: r["filter"] for r in csv.DictReader(open(out / "table2.csv"))
+                     if r["tracklets"] == "filtered"}
+    assert "## Choosing the tracklet filters" not in (tmp_path / "given" / "table2.md").read_text()
+    (tmp_path / "bad.csv").write_text("tracker,tracklets,filter\nAB3DMOT,filtered,no such filter\n")
+    for extra, said in (((("--filters-from", tmp_path / "bad.csv")), "not a study's table2.csv"),
+                        (("--filters-from", out / "table2.csv", "--choose-on", tracklets), "not both"),
+                        (("--filters-from", tmp_path / "missing.csv"), "missing.csv")):
+        code, stdout, stderr = run_main(main, "track", tracklets, *common, "-o", tmp_path / "bad", *extra)
+        assert_one_line_refusal(code, stdout, stderr, extra)
+        assert said in stderr and not (tmp_path / "bad").exists()
 
 
 def test_a_second_study_reuses_the_dataset_and_the_late_checkpoint(study):

@@ -242,6 +242,16 @@ def test_filtered_flood_gives_the_full_tracker_its_place(flood):
     assert filtered[FULL_TRACKER] >= filtered["3D DIoU"] - 0.01
 
 
+def test_filters_scored_in_processes_are_scored_as_in_one():
+    players = simulate_players(PlayersConfig(n_frames=40), np.random.default_rng(12))
+    tracklets = [make_tracklets(players, FLOOD, np.random.default_rng(312))]
+    grid = [TrackletFilter(s, "centre", 1.0) for s in (0.2, 0.4, 0.6)]
+    configs = load_tracker_configs(TRACKER_CONFIGS)[2:4]
+    alone = choose_filters(tracklets, [players.frames()], configs, grid)
+    assert choose_filters(tracklets, [players.frames()], configs, grid, workers=2) == alone
+    assert [len(scores) for _, scores in alone.values()] == [3, 3]
+
+
 @pytest.mark.parametrize("config", load_tracker_configs(TRACKER_CONFIGS), ids=lambda c: c.name)
 def test_a_player_the_engine_places_elsewhere_is_born_again(config):
     """A restart: the player vanishes at x = 0 and walks on from x = 30 m. No tracker links the two (a jump of

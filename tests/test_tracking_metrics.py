@@ -6,12 +6,13 @@ IoU 0.5 / 1.5 = 1/3, one 10 m away gives 0.
 
 import numpy as np
 import pytest
+from scipy.optimize import linear_sum_assignment
 
 from simgen.datasets.kitti import parse_labels
 from train.evaluation.hota import centre_hota, centre_similarity, hota
 from train.evaluation.kitti import write_kitti_tracking
 from train.evaluation.tracking import evaluate_tracking, recall_thresholds, switches_and_fragments
-from train.geometry import iou_3d_pairs
+from train.geometry import iou_3d, iou_3d_pairs
 from train.tracking.types import GroundTruthFrame, TrackedFrame
 
 CUBE = np.array([0.0, 0.0, 0.5, 1.0, 1.0, 1.0, 0.0])
@@ -147,6 +148,74 @@ def test_clips_are_evaluated_apart_and_summed():
     other = tracks(*[[(CUBE, 8)]] * N_FRAMES)  # id 8 again: a different clip, no switch
     b = evaluate_tracking([ground_truth(), ground_truth()], [one, other]).best
     assert (b.n_gt, b.tp, b.ids) == (12, 12, 1)
+
+
+def crowded_clip(rng: np.random.Generator, n_frames: int = 30) -> tuple[list[GroundTruthFrame], list[TrackedFrame]]:
+    """Four objects side by side; per object and frame a track box near it (often), a duplicate (sometimes),
+    ids that switch now and then, and a false box; each track scored at random."""
+    gt, out, ids = [], [], [10, 11, 12, 13]
+    score = {i: rng.uniform(0.1, 1.0) for i in range(100)}
+    for _ in range(n_frames):
+        objects = np.array([CUBE + [0.8 * k, 0, 0, 0, 0, 0, 0] for k in range(4)])
+        ids = [rng.choice([i, 20 + k]) if rng.random() < 0.1 else i for k, i in enumerate(ids)]
+        boxes, track_ids = [], []
+        for k, box in enumerate(objects):
+            if rng.random() < 0.8:
+                boxes.append(box + [rng.normal(0, 0.2), rng.normal(0, 0.2), 0, 0, 0, 0, 0])
+                track_ids.append(ids[k])
+            if rng.random() < 0.3:
+                boxes.append(box + [rng.normal(0, 0.3), 0, 0, 0, 0, 0, 0])
+                track_ids.append(30 + k)
+        boxes.append(FAR + [rng.normal(0, 0.5), 0, 0, 0, 0, 0, 0])
+        track_ids.append(40)
+        gt.append(GroundTruthFrame(objects, [1, 2, 3, 4]))
+        out.append(TrackedFrame(np.array(boxes), track_ids, [score[i] for i in track_ids]))
+    return gt, out
+
+
+def devkit_counts(gt, out, threshold: float, min_iou: float) -> tuple[tuple[int, ...], list[float]]:
+    """(n_gt, tp, fp, ids, frag) and the true positives' scores, frame by frame as the KITTI devkit counts them
+    (a track kept or dropped whole by its mean score)."""
+    n_gt = tp = fp = 0
+    tp_scores, trajectories, per_track = [], {}, {}
+    for o in out:
+        for track_id, score in zip(o.ids.tolist(), o.scores.tolist()):
+            per_track.setdefault(track_id, []).append(score)
+    for g, o in zip(gt, out):
+        scores = np.array([np.mean(per_track[i]) for i in o.ids.tolist()])
+        keep = scores >= threshold
+        iou = iou_3d(g.boxes, o.boxes[keep])
+        rows, cols = linear_sum_assignment(np.where(iou >= min_iou, 1.0 - iou, 1e9))
+        good = iou[rows, cols] >= min_iou
+        rows, cols = rows[good], cols[good]
+        assigned = np.full(len(g.ids), -1)
+        assigned[rows] = o.ids[keep][cols]
+        n_gt, tp, fp = n_gt + len(g.ids), tp + len(rows), fp + int(keep.sum()) - len(rows)
+        tp_scores += scores[keep][cols].tolist()
+        for gt_id, track_id in zip(g.ids.tolist(), assigned.tolist()):
+            trajectories.setdefault(gt_id, []).append(track_id)
+    ids = sum(switches_and_fragments(a)[0] for a in trajectories.values())
+    frag = sum(switches_and_fragments(a)[1] for a in trajectories.values())
+    return (n_gt, tp, fp, ids, frag), tp_scores
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("min_iou", [0.25, 0.5])
+def test_crowded_clips_count_as_the_devkit_frame_by_frame(seed, min_iou):
+    """Duplicates and neighbours make frames where one box could match two objects: the counts, sAMOTA and the
+    best MOTA's threshold are the devkit's, frame by frame with the Hungarian algorithm."""
+    gt, out = crowded_clip(np.random.default_rng(seed))
+    metrics = evaluate_tracking([gt], [out], min_iou=min_iou)
+    everything, tp_scores = devkit_counts(gt, out, -np.inf, min_iou)
+    levels = recall_thresholds(tp_scores, everything[0])
+    samota = 0.0
+    for threshold, recall in levels:
+        n_gt, tp, fp, ids, _ = devkit_counts(gt, out, threshold, min_iou)[0]
+        samota += min(1.0, max(0.0, 1.0 - (n_gt - tp + fp + ids - (1.0 - recall) * n_gt) / (recall * n_gt)))
+    b = metrics.best
+    assert (b.n_gt, b.tp, b.fp, b.ids, b.frag) == devkit_counts(gt, out, metrics.best_threshold, min_iou)[0]
+    assert metrics.samota == pytest.approx(samota / 40, abs=1e-12) and metrics.levels_reached == len(levels)
+    assert b.fp > 0 and b.ids + b.frag > 0
 
 
 def test_bad_inputs_are_refused():

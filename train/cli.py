@@ -1,4 +1,4 @@
-"""`simgen-train fit | eval | detect | study`: the paper's PointPillars tracklet detector on simgen datasets.
+"""`simgen-train fit | eval | detect | study | track`: the paper's PointPillars tracklet detector on simgen datasets.
 
 Datasets are read only through simgen.datasets. Bad input (a missing dataset or config, a file
 that is not our checkpoint, an option out of range, a model that would not fit in the device's
@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
+import time
 import warnings
 from pathlib import Path
 
@@ -18,7 +19,7 @@ import torch
 from tqdm import tqdm
 
 import simgen.datasets
-from simgen.atomic import check_output_allowed
+from simgen.atomic import atomic_path, check_output_allowed
 from simgen.cli import dispatch
 from simgen.errors import UserError
 from simgen.scenario import Scenario, load_scenario
@@ -36,19 +37,26 @@ from train.preflight import (
     parse_seeds,
     scenario_points_per_frame,
 )
-from train.study.report import write_tables
+from train.study.report import tracking_csv, tracking_markdown, write_tables
 from train.study.run import (
     CONFIGS,
     PRESETS,
     SCENARIOS,
     TRACKER_CONFIGS,
     StudyOptions,
+    choose_tracklet_filters,
+    given_filters,
     model_config,
+    module_counts,
     parse_models,
     run_study,
     seed_runs,
+    split_window_pairs,
+    track,
+    tracklet_clip_set,
 )
 from train.study.seeds import write_seed_tables
+from train.study.tracklet_filter import read_filters
 from train.tracking.config import load_tracker_configs
 
 SPLITS = ("train", "val", "all")
@@ -240,6 +248,47 @@ def _study(args: argparse.Namespace) -> int:
     return 0
 
 
+def _track(args: argparse.Namespace) -> int:
+    """Table 2 of tracklet files: each tracker's filter read from --filters-from, or chosen on --choose-on (else on
+    the tracked files), then every tracker on the tracked files, scored against the dataset's labels, and what its
+    birth/death and split modules did."""
+    if args.filters_from is not None and args.choose_on is not None:
+        raise UserError("give --filters-from or --choose-on, not both")
+    out, config = _output(args.output), load_config(args.config)
+    configs = load_tracker_configs(args.trackers)
+    dataset = Path(args.dataset)
+    start = time.perf_counter()
+    tracked = tracklet_clip_set([Path(p) for p in args.tracklets], dataset, config)
+    if args.filters_from is not None:
+        filters = given_filters(tracked, configs, read_filters(Path(args.filters_from)), args.filters_from)
+        chosen_on = f"as `{args.filters_from}` names it (a study's choice on its own train clips; not chosen here)"
+    else:
+        choose_on = tracked if args.choose_on is None else tracklet_clip_set([Path(p) for p in args.choose_on],
+                                                                              dataset, config)
+        frames = sum(len(choose_on.frames[c]) for c in choose_on.clips)
+        where = ("the tracked clips themselves (no other tracklets given: an optimistic choice)"
+                 if args.choose_on is None else f"clips {', '.join(choose_on.clips)}, not the tracked ones")
+        chosen_on = (f"chosen on {where} ({frames} frames): of the grid at the end, the filter under which that "
+                     "tracker reaches its highest sAMOTA (IoU 0.25) there")
+        filters = choose_tracklet_filters(choose_on, tracked, configs, not args.quiet, args.workers)
+    results = track(tracked, configs, filters, not args.quiet)
+    counts, pairs = module_counts(tracked, configs, filters), split_window_pairs(tracked, configs, filters)
+    command = shlex.join(["simgen-train", "track", *args.tracklets, "--dataset", args.dataset, "--config",
+                          args.config, "-o", args.output, "--workers", str(args.workers)]
+                         + (["--choose-on", *args.choose_on] if args.choose_on else [])
+                         + (["--filters-from", args.filters_from] if args.filters_from else [])
+                         + (["--trackers", args.trackers] if Path(args.trackers) != TRACKER_CONFIGS else []))
+    texts = {"table2.md": tracking_markdown(command, tracked, results, filters, chosen_on, counts, pairs,
+                                            time.perf_counter() - start),
+             "table2.csv": tracking_csv(results, filters)}
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in texts.items():
+        with atomic_path(out / name) as tmp:
+            tmp.write_text(text)
+        print(out / name)
+    return 0
+
+
 def _seed_list(text: str) -> tuple[int, ...]:
     try:
         return parse_seeds(text)
@@ -326,6 +375,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto", help="default: CUDA when present")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=_study)
+
+    p = sub.add_parser("track", help="Table 2 of tracklet files already written (`detect`, a study's "
+                       "late/tracklets/): every tracker on them, scored against the dataset's labels, into OUT")
+    p.add_argument("tracklets", nargs="+", help="tracklet .npz files, one per clip")
+    p.add_argument("--dataset", required=True, help="the dataset the tracklets were detected on (its labels)")
+    p.add_argument("--config", required=True, help="the detector config that made them: its classes and point range "
+                   "select the labelled boxes, as in the study")
+    p.add_argument("-o", "--output", required=True, help="output folder (created): table2.md and table2.csv")
+    p.add_argument("--choose-on", nargs="+", metavar="TRACKLETS", help="tracklet files of other clips (e.g. the "
+                   "train clips') on which each tracker's filter is chosen, as the study does; default: the tracked "
+                   "files themselves, an optimistic choice that the table states")
+    p.add_argument("--filters-from", metavar="TABLE2_CSV", help="instead of choosing: each tracker's filter as a "
+                   "study's table2.csv names it (e.g. a CPU study's, chosen on its own train clips)")
+    p.add_argument("--trackers", default=str(TRACKER_CONFIGS), help="folder of tracker configs, one per Table 2 row "
+                   "(default: train/configs/tracking)")
+    p.add_argument("--workers", type=WORKERS, default=1, help="processes scoring the candidate filters (default 1)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(func=_track)
     return parser
 
 

@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
 from train.evaluation.recall_levels import level_thresholds
-from train.geometry import iou_3d
+from train.geometry import iou_3d_pairs
 from train.tracking.types import GroundTruthFrame, TrackedFrame
 
 RECALL_LEVELS = 40
@@ -102,6 +102,18 @@ def _check_ids(ids: NDArray[np.int64], what: str, frame: int) -> None:
         raise ValueError(f"{what} ids must be unique and non-negative in a frame; frame {frame}: {ids.tolist()}")
 
 
+def _frame_ious(gt_clip: Clip, track_clip: TrackedClip) -> list[NDArray[np.float64]]:
+    """Each frame's (G, T) 3D IoU of ground truth and tracker boxes, all the clip's pairs in one call."""
+    shapes = [(len(gt.ids), len(out.ids)) for gt, out in zip(gt_clip, track_clip)]
+    pairs = [(np.repeat(gt.boxes, len(out.ids), axis=0), np.tile(out.boxes, (len(gt.ids), 1)))
+             for gt, out in zip(gt_clip, track_clip)]
+    if not pairs:
+        return []
+    flat = iou_3d_pairs(np.concatenate([a for a, _ in pairs]), np.concatenate([b for _, b in pairs]))
+    ends = np.cumsum([g * n for g, n in shapes])
+    return [part.reshape(shape) for part, shape in zip(np.split(flat, ends[:-1]), shapes)]
+
+
 def _prepare(ground_truth: Sequence[Clip], tracks: Sequence[TrackedClip]) -> list[list[_Frame]]:
     if len(ground_truth) != len(tracks) or any(len(g) != len(t) for g, t in zip(ground_truth, tracks)):
         raise ValueError("ground truth and tracks differ in number of clips or frames")
@@ -116,58 +128,107 @@ def _prepare(ground_truth: Sequence[Clip], tracks: Sequence[TrackedClip]) -> lis
         mean_score = {k: float(np.mean(v)) for k, v in per_track.items()}
         clips.append(
             [
-                _Frame(
-                    gt.ids, out.ids, iou_3d(gt.boxes, out.boxes), np.array([mean_score[k] for k in out.ids.tolist()])
-                )
-                for gt, out in zip(gt_clip, track_clip)
+                _Frame(gt.ids, out.ids, iou, np.array([mean_score[k] for k in out.ids.tolist()]))
+                for gt, out, iou in zip(gt_clip, track_clip, _frame_ious(gt_clip, track_clip))
             ]
         )
     return clips
 
 
+class _Counter:
+    """CLEAR MOT counts of some clips at any score threshold, with what does not depend on it computed once.
+
+    Ground-truth boxes and tracker boxes become slots in flat arrays (clip, frame, box order), and the pairs at
+    3D IoU >= min_iou one list. At a threshold, a frame whose kept pairs share no ground-truth box and no
+    track is matched as they are: the Hungarian algorithm takes every such pair (each one it left out would add
+    a forbidden cost), so only the other frames are matched by it. IDS and FRAG are counted along every
+    ground-truth trajectory at once, on arrays.
+    """
+
+    def __init__(self, clips: list[list[_Frame]], min_iou: float) -> None:
+        self.frames = [frame for frames in clips for frame in frames]
+        self.min_iou = min_iou
+        self.gt_start = np.concatenate([[0], np.cumsum([len(f.gt_ids) for f in self.frames], dtype=np.int64)])
+        self.track_start = np.concatenate([[0], np.cumsum([len(f.track_ids) for f in self.frames], dtype=np.int64)])
+        self.track_ids = _flat([f.track_ids for f in self.frames], np.int64)
+        self.track_scores = _flat([f.track_scores for f in self.frames], np.float64)
+        pairs = [np.nonzero(f.iou >= min_iou) for f in self.frames]
+        self.pair_frame = np.repeat(np.arange(len(self.frames)), [len(r) for r, _ in pairs])
+        self.pair_gt = _flat([self.gt_start[k] + r for k, (r, _) in enumerate(pairs)], np.int64)
+        self.pair_track = _flat([self.track_start[k] + c for k, (_, c) in enumerate(pairs)], np.int64)
+        self.pair_iou = _flat([f.iou[r, c] for f, (r, c) in zip(self.frames, pairs)], np.float64)
+        # Each ground-truth trajectory's slots in frame order, one trajectory after another.
+        clip_of = np.repeat(np.arange(len(clips)), [sum(len(f.gt_ids) for f in frames) for frames in clips])
+        gt_ids = _flat([f.gt_ids for f in self.frames], np.int64)
+        self.order = np.lexsort((np.arange(len(gt_ids)), gt_ids, clip_of))
+        self.first = np.ones(len(gt_ids), bool)
+        self.first[1:] = (np.diff(clip_of[self.order]) != 0) | (np.diff(gt_ids[self.order]) != 0)
+
+    def _hungarian(self, frame: int, keep: NDArray[np.bool_]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """Ground-truth and track slots of a frame's matched pairs, by the Hungarian algorithm."""
+        kept = np.flatnonzero(keep[self.track_start[frame] : self.track_start[frame + 1]])
+        iou = self.frames[frame].iou[:, kept]
+        rows, cols = linear_sum_assignment(np.where(iou >= self.min_iou, 1.0 - iou, _FORBIDDEN))
+        good = iou[rows, cols] >= self.min_iou
+        return self.gt_start[frame] + rows[good], self.track_start[frame] + kept[cols[good]]
+
+    def __call__(self, threshold: float) -> tuple[ClearMot, list[float]]:
+        """Counts with the tracks whose mean score is at least threshold, and the true positives' scores."""
+        keep = self.track_scores >= threshold
+        kept = keep[self.pair_track]
+        gt_degree = np.bincount(self.pair_gt[kept], minlength=self.gt_start[-1])
+        track_degree = np.bincount(self.pair_track[kept], minlength=self.track_start[-1])
+        shared = kept & ((gt_degree[self.pair_gt] > 1) | (track_degree[self.pair_track] > 1))
+        hard = np.zeros(len(self.frames), bool)
+        hard[self.pair_frame[shared]] = True
+        easy = kept & ~hard[self.pair_frame]
+        solved = [self._hungarian(k, keep) for k in np.flatnonzero(hard)]
+        gt_slots = _flat([self.pair_gt[easy], *(g for g, _ in solved)], np.int64)
+        track_slots = _flat([self.pair_track[easy], *(s for _, s in solved)], np.int64)
+        iou_sum = float(self.pair_iou[easy].sum()) + sum(
+            float(self.frames[k].iou[g - self.gt_start[k], s - self.track_start[k]].sum())
+            for k, (g, s) in zip(np.flatnonzero(hard), solved)
+        )
+        assigned = np.full(self.gt_start[-1], -1, np.int64)
+        assigned[gt_slots] = self.track_ids[track_slots]
+        ids, frag = _switches_and_fragments_laid_out(assigned[self.order], self.first)
+        n_gt, tp = int(self.gt_start[-1]), len(gt_slots)
+        counts = ClearMot(n_gt, tp, int(keep.sum()) - tp, n_gt - tp, ids, frag, iou_sum)
+        return counts, self.track_scores[track_slots].tolist()
+
+
+def _flat(parts: list[NDArray], dtype: type) -> NDArray:
+    return np.concatenate(parts).astype(dtype, copy=False) if parts else np.zeros(0, dtype)
+
+
+def _switches_and_fragments_laid_out(assigned: NDArray[np.int64], first: NDArray[np.bool_]) -> tuple[int, int]:
+    """Summed IDS and FRAG (the module's rule) of trajectories laid end to end: assigned (N,), each frame's tracker
+    id, -1 untracked; first (N,), where each trajectory starts."""
+    n = len(assigned)
+    if not n:
+        return 0, 0
+    index = np.arange(n)
+    start = np.maximum.accumulate(np.where(first, index, 0))  # each position's trajectory start
+    final = np.ones(n, bool)  # a trajectory's last position
+    final[:-1] = first[1:]
+    seen = np.maximum.accumulate(np.where(assigned != -1, index, -1))  # the latest tracked position so far
+    seen_before = np.concatenate([[-1], seen[:-1]])
+    last = np.where(seen_before >= start, assigned[np.maximum(seen_before, 0)], -1)  # the id last seen before
+    before = np.concatenate([[-1], assigned[:-1]])
+    after = np.concatenate([assigned[1:], [-1]])
+    inner = ~first
+    tracked = inner & (last != -1) & (assigned != -1)
+    switches = tracked & (assigned != last) & (before != -1)
+    fragments = tracked & ~final & (assigned != before) & (after != -1)
+    fragments |= inner & final & (assigned != before) & (assigned != -1)
+    return int(switches.sum()), int(fragments.sum())
+
+
 def switches_and_fragments(assigned: Sequence[int]) -> tuple[int, int]:
     """IDS and FRAG of one ground-truth trajectory: its tracker id per frame, -1 where untracked."""
-    if len(assigned) < 2:
-        return 0, 0
-    switches = fragments = 0
-    last = assigned[0]
-    for f in range(1, len(assigned)):
-        now, before = assigned[f], assigned[f - 1]
-        if now != last and last != -1 and now != -1 and before != -1:
-            switches += 1
-        if f < len(assigned) - 1 and now != before and last != -1 and now != -1 and assigned[f + 1] != -1:
-            fragments += 1
-        if now != -1:
-            last = now
-    if assigned[-1] != assigned[-2] and assigned[-1] != -1:
-        fragments += 1
-    return switches, fragments
-
-
-def _evaluate(clips: list[list[_Frame]], min_iou: float, threshold: float) -> tuple[ClearMot, list[float]]:
-    """Counts with the tracks whose mean score is at least threshold, and the true positives' scores."""
-    n_gt = tp = fp = ids = frag = 0
-    iou_sum = 0.0
-    tp_scores: list[float] = []
-    for frames in clips:
-        trajectories: dict[int, list[int]] = defaultdict(list)
-        for frame in frames:
-            keep = frame.track_scores >= threshold
-            iou, track_ids = frame.iou[:, keep], frame.track_ids[keep]
-            assigned = np.full(len(frame.gt_ids), -1)  # tracker id per ground-truth box; -1: missed
-            rows, cols = linear_sum_assignment(np.where(iou >= min_iou, 1.0 - iou, _FORBIDDEN))
-            good = iou[rows, cols] >= min_iou
-            rows, cols = rows[good], cols[good]
-            assigned[rows] = track_ids[cols]
-            iou_sum += float(iou[rows, cols].sum())
-            tp_scores.extend(frame.track_scores[keep][cols].tolist())
-            n_gt, tp, fp = n_gt + len(frame.gt_ids), tp + len(rows), fp + len(track_ids) - len(rows)
-            for gt_id, track_id in zip(frame.gt_ids.tolist(), assigned.tolist()):
-                trajectories[gt_id].append(track_id)
-        for assigned_ids in trajectories.values():
-            s, f = switches_and_fragments(assigned_ids)
-            ids, frag = ids + s, frag + f
-    return ClearMot(n_gt, tp, fp, n_gt - tp, ids, frag, iou_sum), tp_scores
+    first = np.zeros(len(assigned), bool)
+    first[:1] = True
+    return _switches_and_fragments_laid_out(np.asarray(assigned, np.int64), first)
 
 
 def recall_thresholds(tp_scores: Sequence[float], n_gt: int, levels: int = RECALL_LEVELS) -> list[tuple[float, float]]:
@@ -182,15 +243,15 @@ def evaluate_tracking(
     ground_truth: Sequence[Clip], tracks: Sequence[TrackedClip], min_iou: float = 0.25, levels: int = RECALL_LEVELS
 ) -> TrackingMetrics:
     """AB3DMOT's metrics over clips of ground truth and tracker output, frame for frame."""
-    clips = _prepare(ground_truth, tracks)
-    everything, tp_scores = _evaluate(clips, min_iou, -np.inf)
+    count = _Counter(_prepare(ground_truth, tracks), min_iou)
+    everything, tp_scores = count(-np.inf)
     samota = amota = amotp = 0.0
     best_mota, best_threshold = 0.0, -np.inf
     thresholds = recall_thresholds(tp_scores, everything.n_gt, levels) if everything.n_gt else []
     for threshold, recall in thresholds:
-        counts, _ = _evaluate(clips, min_iou, threshold)
+        counts, _ = count(threshold)
         samota, amota, amotp = samota + counts.smota(recall), amota + counts.mota, amotp + counts.motp
         if counts.mota > best_mota:
             best_mota, best_threshold = counts.mota, threshold
-    best = everything if best_threshold == -np.inf else _evaluate(clips, min_iou, best_threshold)[0]
+    best = everything if best_threshold == -np.inf else count(best_threshold)[0]
     return TrackingMetrics(samota / levels, amota / levels, amotp / levels, best, best_threshold, len(thresholds))

@@ -8,7 +8,8 @@ from pathlib import Path
 
 from simgen.atomic import atomic_path
 from train.evaluation.ap_table import CENTRE_THRESHOLDS_M, IOU_THRESHOLD, mean_ap
-from train.study.run import StudyDataset, StudyResult, TrackerResult
+from train.evaluation.tracker_modules import ClosePairs, ModuleCounts
+from train.study.run import ClipSet, FilterChoice, StudyDataset, StudyResult, TrackerResult
 
 LABELS = {"single": "Single Frame", "early": "Early Fusion", "late": "Late Fusion"}
 # Table 1 of the paper: (method, density) -> AP of the boxes at t, BEV and 3D, IoU 0.5.
@@ -173,8 +174,17 @@ def table2_markdown(result: StudyResult, command: str) -> str:
             )
             + "\n"
         )
+    chosen_on = (f"chosen on the train clips ({next(iter(filters.values())).train_frames} frames), never on val: of "
+                 "the grid at the end, the filter under which that tracker reaches its highest sAMOTA (IoU 0.25) there")
+    return "\n".join(lines + tracking_sections(result.trackers, filters, chosen_on)) + "\n"
+
+
+def tracking_sections(trackers: list[TrackerResult], filters: dict[str, FilterChoice], chosen_on: str) -> list[str]:
+    """Table 2's Markdown below its header: the metrics' note, each tracker's filter (`chosen_on` says how it was
+    chosen), the tables at each IoU, filtered and not, the paper's, and every filter's sAMOTA where the filters were
+    chosen (none where they were given)."""
     first = next(iter(filters.values()))
-    lines += [
+    lines = [
         "AB3DMOT's metrics (train.evaluation.tracking) on the val clips against the labelled boxes and track ids; "
         "sAMOTA, AMOTA, AMOTP, MOTA, MOTP in percent; MOTA, MOTP, IDS and FRAG at the score threshold of the best "
         "MOTA. "
@@ -182,26 +192,27 @@ def table2_markdown(result: StudyResult, command: str) -> str:
         "tolerance on centre distance (beyond the paper). AB3DMOT tracks the boxes at t; the 3D DIoU tracker the whole "
         "tracklets. Every tracker is defined by its file in train/configs/tracking/.",
         "",
-        f"Tracklets for tracking (train.study.tracklet_filter): each tracker gets its own filter, chosen on the train "
-        f"clips ({first.train_frames} frames), never val: of the grid at the end, the filter under which that tracker "
-        f"reaches its highest sAMOTA (IoU 0.25) on the train clips' tracklets. Val tracklets per frame: "
-        f"{first.val_tracklets_per_frame[0]:.1f} as detected.",
+        f"Tracklets for tracking (train.study.tracklet_filter): each tracker gets its own filter, {chosen_on}. "
+        f"Val tracklets per frame: {first.val_tracklets_per_frame[0]:.1f} as detected.",
         "",
         "| Method | tracklet filter | val tracklets per frame |",
         "| --- | --- | ---: |",
         *(f"| {name} | {c.chosen.label} | {c.val_tracklets_per_frame[1]:.1f} |" for name, c in filters.items()),
     ]
     for filtered, title in ((True, "filtered tracklets"), (False, "unfiltered tracklets, for comparison")):
-        for iou in sorted({r.min_iou for r in result.trackers}):
-            rows = [r for r in result.trackers if r.min_iou == iou and r.filtered == filtered]
+        for iou in sorted({r.min_iou for r in trackers}):
+            rows = [r for r in trackers if r.min_iou == iou and r.filtered == filtered]
             if rows:
                 lines += ["", f"## 3D IoU >= {iou:g}, {title}", "", *_table2_head()]
                 lines += [_table2_row(r.tracker, _tracker_values(r)) for r in rows]
     lines += ["", "## The paper's Table 2 (its simulated dataset, IoU 0.25)", "", *_table2_head()]
     lines += [_table2_row(name, (*values, "–", "–")) for name, values in PAPER_TABLE2.items()]
-    lines += ["", "## Choosing the tracklet filters: each tracker's sAMOTA (IoU 0.25) on the train clips", "",
+    if not first.scores:  # filters given, not chosen here
+        return lines
+    lines += ["", f"## Choosing the tracklet filters: each tracker's sAMOTA (IoU 0.25) on the {first.train_frames} "
+              "frames they were chosen on", "",
               "Each tracker's chosen filter in bold.", "",
-              "| Filter | tracklets per frame (train) | " + " | ".join(filters) + " |",
+              "| Filter | tracklets per frame | " + " | ".join(filters) + " |",
               "| --- | ---: |" + " ---: |" * len(filters)]
     for i, score in enumerate(first.scores):
         cells = []
@@ -209,6 +220,56 @@ def table2_markdown(result: StudyResult, command: str) -> str:
             text = f"{100 * choice.scores[i].samota:.2f}"
             cells.append(f"**{text}**" if choice.scores[i].rule == choice.chosen else text)
         lines.append(f"| {score.rule.label} | {score.tracklets_per_frame:.1f} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def modules_markdown(counts: dict[str, ModuleCounts], pairs: dict[str, ClosePairs]) -> list[str]:
+    """What birth/death and split did, per tracker, and the close players the split is for
+    (train.evaluation.tracker_modules)."""
+    lines = [
+        "## What birth/death and split do (train.evaluation.tracker_modules)", "",
+        "Counted against the labels on the tracked clips, each tracker through its own filter; a box is on a label at "
+        "3D IoU >= 0.25. Births held back: new tracks that died before confirmation; false (on no label), "
+        "duplicate (only on labels another confirmed track held), real (on a label no track held). Dying: output "
+        "frames of confirmed unmatched tracks (useful: on a label no matched track held; duplicate: on one a matched "
+        "track held; off: on no label) and how they ended: "
+        "recovered on the label they had (same) or on another (other), or died. Splits: pair-frames the split "
+        "module gave two boxes, on two labels (two players) or not.", "",
+        "| Tracker | held back | false / duplicate / real | confirmed | false / duplicate / real | dying outputs "
+        "| useful / duplicate / off | recovered | same / other / unlabelled | died | splits "
+        "| two players / one / none |",
+        "| --- |" + " ---: |" * 12,
+    ]
+    for name, c in counts.items():
+        cells = [c.held_back, f"{c.held_back_false} / {c.held_back_duplicate} / {c.held_back_real}", c.confirmed,
+                 f"{c.confirmed_false} / {c.confirmed_duplicate} / {c.confirmed_real}", c.dying_output,
+                 f"{c.dying_output_useful} / {c.dying_output_duplicate} / {c.dying_output_off}", c.dying_recovered,
+                 f"{c.recovered_same} / {c.recovered_other} / {c.recovered_unlabelled}", c.dying_died, c.splits,
+                 f"{c.split_two_players} / {c.split_one_player} / {c.split_none}"]
+        lines.append(f"| {name} | " + " | ".join(map(str, cells)) + " |")
+    lines += ["", "Players close enough to split (centres 0.25-1.5 m apart at t), pair-frames, by how each split "
+              "tracker's filtered tracklets show them: separate (each on a tracklet of its own), fused (one tracklet "
+              "nearer their midpoint than the player it lies on: what the split module is for), one, none.", "",
+              "| Tracker | pairs | separate | fused | one | none |", "| --- |" + " ---: |" * 5]
+    lines += [f"| {name} | {p.pairs} | {p.separate} | {p.fused} | {p.one} | {p.none} |" for name, p in pairs.items()]
+    return lines
+
+
+def tracking_markdown(
+    command: str, tracked: ClipSet, trackers: list[TrackerResult], filters: dict[str, FilterChoice], chosen_on: str,
+    counts: dict[str, ModuleCounts], pairs: dict[str, ClosePairs], seconds: float,
+) -> str:
+    """`simgen-train track`'s Table 2: tracklet files already written, each tracker on them against the labels."""
+    frames = sum(len(tracked.frames[c]) for c in tracked.clips)
+    lines = [
+        "# Table 2 of tracklet files: tracking them against the dataset's labels", "",
+        f"Command: `{command}`", "",
+        f"- Tracked: clips {', '.join(tracked.clips)}, {frames} frames t (each with two before it); ground truth as "
+        "the study's (the objects of the detector config's classes whose centre at t is in its point range).",
+        f"- Timing: choosing the filters and tracking, with the metrics, {seconds:.0f} s.",
+        "",
+    ]
+    lines += [*tracking_sections(trackers, filters, chosen_on), "", *modules_markdown(counts, pairs)]
     return "\n".join(lines) + "\n"
 
 
@@ -263,16 +324,21 @@ def table1_csv(result: StudyResult) -> str:
 
 
 def table2_csv(result: StudyResult) -> str:
+    return tracking_csv(result.trackers, result.filters)
+
+
+def tracking_csv(trackers: list[TrackerResult], filters: dict[str, FilterChoice]) -> str:
+    """Table 2 as CSV: a row per tracker, tracklets (filtered or not) and IoU."""
     rows: list[list[object]] = [["tracker", "tracklets", "min_iou", "samota", "amota", "amotp", "mota", "motp", "ids",
                                  "frag", "tp", "fp", "fn", "n_gt", "best_threshold", "recall_levels_reached", "hota",
                                  "deta", "assa", "centre_hota", "filter"]]
-    for r in result.trackers:
+    for r in trackers:
         m, b = r.metrics, r.metrics.best
         rows.append([r.tracker, "filtered" if r.filtered else "unfiltered", r.min_iou,
                      *(f"{v:.4f}" for v in (m.samota, m.amota, m.amotp, b.mota, b.motp)), b.ids, b.frag,
                      b.tp, b.fp, b.fn, b.n_gt, f"{m.best_threshold:.4f}", m.levels_reached,
                      *(f"{v:.4f}" for v in (r.hota.hota, r.hota.deta, r.hota.assa, r.centre_hota.hota)),
-                     result.filters[r.tracker].chosen.label if r.filtered else "none"])
+                     filters[r.tracker].chosen.label if r.filtered else "none"])
     return _csv(rows)
 
 

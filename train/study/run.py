@@ -7,7 +7,8 @@
    weights (inference settings may differ: train.config.same_weights), and its boxes at t
    are scored on the `val` clips (train.evaluation.ap_table: AP in BEV and 3D, IoU 0.5).
 3. Table 2: the `late` model's tracklets are filtered for tracking (train.study.tracklet_filter: a score
-   threshold and a tight NMS, chosen for each tracker by its own sAMOTA on the `train` clips), then
+   threshold and a tight NMS, chosen for each tracker by its own sAMOTA on the `train` clips, the filters
+   scored in as many processes as the model's loader has), then
    the `val` clips' go to every tracker of train/configs/tracking/ (AB3DMOT with its own and with
    the player Kalman filter, the 3D DIoU tracker with and without birth/death and split), each
    through its own filter; their tracks are scored against the labels (train.evaluation), and so are
@@ -35,9 +36,9 @@ from simgen.atomic import atomic_path
 from simgen.errors import UserError
 from simgen.scenario import Scenario, parse_scenario
 from train.checkpoint import load_checkpoint
-from train.config import DetectorConfig, load_config, parse_config, same_weights
-from train.data import Sample
-from train.detector.detections import ClipTracklets, clip_tracklets, write_tracklets
+from train.config import TRACKLET_FRAMES, DetectorConfig, load_config, parse_config, same_weights
+from train.data import RecentFrames, Sample, crop, load_sample
+from train.detector.detections import ClipTracklets, clip_tracklets, read_tracklets, write_tracklets
 from train.detector.inference import predict
 from train.detector.model import Detector
 from train.detector.postprocess import Detections
@@ -45,6 +46,7 @@ from train.evaluation.ap_table import ApRow, average_precisions, visible_objects
 from train.evaluation.decomposition import Decomposition, decompose
 from train.evaluation.detection import FrameBoxes
 from train.evaluation.hota import Hota, centre_hota, hota
+from train.evaluation.tracker_modules import ClosePairs, ModuleCounts, close_pairs, count_modules
 from train.evaluation.tracking import TrackingMetrics, evaluate_tracking
 from train.fit import CHECKPOINT_NAME, fit
 from train.study.tracklet_filter import FilterScore, TrackletFilter, apply_filter, choose_filters
@@ -120,7 +122,7 @@ class FilterChoice:
     chosen: TrackletFilter
     tracker: str
     scores: list[FilterScore]  # in train.study.tracklet_filter.GRID order
-    train_frames: int
+    train_frames: int  # frames of the clips it was chosen on
     val_tracklets_per_frame: tuple[float, float]  # before and after the filter
 
 
@@ -282,6 +284,31 @@ def truth_frames(samples: list[Sample]) -> list[GroundTruthFrame]:
     return frames
 
 
+def tracklet_clip_set(paths: list[Path], dataset: Path, config: DetectorConfig) -> ClipSet:
+    """Tracklet files (train.detector.detections, one per clip) with their clips' ground truth from the dataset,
+    as the study scores them: every frame t with two before it, the objects of `config`'s classes whose centre
+    at t is in its point range (train.data.load_sample, crop)."""
+    data = simgen.datasets.open(dataset)
+    recent = RecentFrames(data)
+    tracklets: dict[str, ClipTracklets] = {}
+    frames: dict[str, list[int]] = {}
+    truth: dict[str, list[GroundTruthFrame]] = {}
+    for path in paths:
+        found = read_tracklets(path)
+        if found.clip not in data.clips:
+            raise UserError(f"{path}: its clip {found.clip!r} is not in {dataset}")
+        if found.clip in tracklets:
+            raise UserError(f"{path}: a second tracklet file of clip {found.clip!r}")
+        keys = list(range(TRACKLET_FRAMES - 1, data.num_frames(found.clip)))
+        outside = np.setdiff1d(found.frame, keys)
+        if len(outside):
+            raise UserError(f"{path}: frame {outside[0]} is not a frame t of {found.clip!r} (2..{keys[-1]})")
+        samples = [crop(load_sample(recent, found.clip, t, config), config.data.point_range_m) for t in keys]
+        tracklets[found.clip], frames[found.clip] = found, keys
+        truth[found.clip] = truth_frames([replace(s, points=()) for s in samples])
+    return ClipSet(tracklets, frames, truth)
+
+
 def detect_split(
     model: Detector, config: DetectorConfig, dataset: StudyDataset, split: str, options: StudyOptions
 ) -> list[tuple[Sample, Detections]]:
@@ -315,14 +342,57 @@ def tracklets_per_frame(clips: ClipSet, rule: TrackletFilter | None) -> float:
 
 
 def choose_tracklet_filters(
-    train: ClipSet, val: ClipSet, configs: list[TrackerConfig], progress: bool
+    train: ClipSet, val: ClipSet, configs: list[TrackerConfig], progress: bool, workers: int = 1
 ) -> dict[str, FilterChoice]:
-    """Each tracker's filter of train.study.tracklet_filter.GRID: the one it tracks best on the train clips."""
+    """Each tracker's filter of train.study.tracklet_filter.GRID: the one it tracks best on the train clips
+    (`workers` processes)."""
     clips = [train.clip_frames(c) for c in train.clips]
-    chosen = choose_filters(clips, [train.truth[c] for c in train.clips], configs, progress=progress)
+    chosen = choose_filters(clips, [train.truth[c] for c in train.clips], configs, progress=progress, workers=workers)
     frames, before = sum(len(c) for c in clips), tracklets_per_frame(val, None)
     return {name: FilterChoice(rule, name, scores, frames, (before, tracklets_per_frame(val, rule)))
             for name, (rule, scores) in chosen.items()}
+
+
+def given_filters(val: ClipSet, configs: list[TrackerConfig], rules: dict[str, TrackletFilter],
+                  source: str) -> dict[str, FilterChoice]:
+    """Each tracker's filter as given (`rules`, by tracker name, from `source`), not chosen here."""
+    missing = [c.name for c in configs if c.name not in rules]
+    if missing:
+        raise UserError(f"{source}: names no filter for tracker {missing[0]!r}")
+    before = tracklets_per_frame(val, None)
+    return {c.name: FilterChoice(rules[c.name], c.name, [], 0, (before, tracklets_per_frame(val, rules[c.name])))
+            for c in configs}
+
+
+def module_counts(
+    val: ClipSet, configs: list[TrackerConfig], filters: dict[str, FilterChoice]
+) -> dict[str, ModuleCounts]:
+    """What birth/death and split do (train.evaluation.tracker_modules) for each tracker that has them, on the val
+    clips through its own filter."""
+    truth = [val.truth[c] for c in val.clips]
+    return {
+        config.name: count_modules(
+            config, [apply_filter(val.clip_frames(c), filters[config.name].chosen) for c in val.clips], truth
+        )
+        for config in configs
+        if config.life_cycle.birth_death or config.split
+    }
+
+
+def split_window_pairs(
+    val: ClipSet, configs: list[TrackerConfig], filters: dict[str, FilterChoice]
+) -> dict[str, ClosePairs]:
+    """For each tracker with the split module, how its filtered val tracklets show the players close enough to
+    split (train.evaluation.tracker_modules.close_pairs)."""
+    return {
+        config.name: sum(
+            (close_pairs(apply_filter(val.clip_frames(c), filters[config.name].chosen), val.truth[c])
+             for c in val.clips),
+            ClosePairs(),
+        )
+        for config in configs
+        if config.split
+    }
 
 
 def track(
@@ -366,7 +436,8 @@ def run_study(options: StudyOptions, scenario: Scenario) -> StudyResult:
     val, train = tracked
     filters, trackers = {}, []
     if detectors[0].config.data.split == "clip":  # the frame split's val windows are scattered: nothing to track
-        filters = choose_tracklet_filters(train, val, configs, options.progress)
+        workers = max(1, next(d.config for d in detectors if d.model == TRACKED_MODEL).train.workers)
+        filters = choose_tracklet_filters(train, val, configs, options.progress, workers)
         trackers = track(val, configs, filters, options.progress)
     now = time.perf_counter()
     return StudyResult(dataset, detectors, trackers, filters, now - began, now - start, options.device.type)

@@ -14,15 +14,21 @@ thus compared at its own best input, not at another tracker's. The val clips are
 
 from __future__ import annotations
 
+import csv
+import functools
+import multiprocessing
 from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from itertools import product
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 from tqdm import tqdm
 
+from simgen.errors import UserError
 from train.detector.nms import nms_bev, nms_centre
 from train.evaluation.tracking import evaluate_tracking
 from train.tracking.clip import make_tracker, track_clip
@@ -68,11 +74,39 @@ def apply_filter(frames: Sequence[Tracklets], rule: TrackletFilter) -> list[Trac
     return [Tracklets(f.boxes[k], f.scores[k]) for f, k in zip(frames, kept)]
 
 
+def read_filters(path: Path) -> dict[str, TrackletFilter]:
+    """Tracker name -> the filter of GRID a study's table2.csv names for it (its `filtered` rows)."""
+    by_label = {rule.label: rule for rule in GRID}
+    try:
+        with open(path, newline="") as table:
+            rows = [r for r in csv.DictReader(table) if r.get("tracklets") == "filtered"]
+    except (OSError, UnicodeDecodeError, csv.Error) as error:
+        raise UserError(f"{path}: not a study's table2.csv ({error.__class__.__name__})") from None
+    if not rows or any(r.get("filter") not in by_label or not r.get("tracker") for r in rows):
+        raise UserError(f"{path}: not a study's table2.csv (no 'filtered' rows naming a filter of the grid)")
+    return {r["tracker"]: by_label[r["filter"]] for r in rows}
+
+
 @dataclass(frozen=True)
 class FilterScore:
     rule: TrackletFilter
     samota: float  # of one tracker on the train clips, IoU 0.25
     tracklets_per_frame: float
+
+
+def score_filter(
+    rule: TrackletFilter,
+    clips: Sequence[Sequence[Tracklets]],
+    truth: Sequence[Sequence[GroundTruthFrame]],
+    trackers: Sequence[TrackerConfig],
+) -> list[FilterScore]:
+    """Each tracker's sAMOTA (IoU 0.25) on `clips` filtered by `rule`, in `trackers` order."""
+    kept = [apply_filter(c, rule) for c in clips]
+    count = sum(len(f.scores) for c in kept for f in c) / max(1, sum(len(c) for c in kept))
+    return [
+        FilterScore(rule, evaluate_tracking(truth, [track_clip(make_tracker(tracker), c) for c in kept]).samota, count)
+        for tracker in trackers
+    ]
 
 
 def choose_filters(
@@ -81,17 +115,25 @@ def choose_filters(
     trackers: Sequence[TrackerConfig],
     grid: Sequence[TrackletFilter] = GRID,
     progress: bool = False,
+    workers: int = 1,
 ) -> dict[str, tuple[TrackletFilter, list[FilterScore]]]:
-    """Tracker name -> the filter of `grid` under which it tracks `clips` best (sAMOTA), and every filter's score."""
-    scores: dict[str, list[FilterScore]] = {t.name: [] for t in trackers}
-    for rule in tqdm(grid, desc="choose tracklet filters", unit="filter", disable=not progress, dynamic_ncols=True):
-        kept = [apply_filter(c, rule) for c in clips]
-        count = sum(len(f.scores) for c in kept for f in c) / max(1, sum(len(c) for c in kept))
-        for tracker in trackers:
-            tracks = [track_clip(make_tracker(tracker), c) for c in kept]
-            scores[tracker.name].append(FilterScore(rule, evaluate_tracking(truth, tracks).samota, count))
+    """Tracker name -> the filter of `grid` under which it tracks `clips` best (sAMOTA), and every filter's score.
+
+    With `workers` > 1 the filters are scored in that many spawned processes (each filter independent of the
+    others; the same scores as in one process).
+    """
+    score = functools.partial(score_filter, clips=clips, truth=truth, trackers=trackers)
+    bar = functools.partial(tqdm, total=len(grid), desc="choose tracklet filters", unit="filter",
+                            disable=not progress, dynamic_ncols=True)
+    if workers > 1 and len(grid) > 1:
+        context = multiprocessing.get_context("spawn")  # the caller may hold torch's threads: no fork
+        with ProcessPoolExecutor(min(workers, len(grid)), mp_context=context) as pool:
+            by_filter = list(bar(pool.map(score, grid)))
+    else:
+        by_filter = list(bar(map(score, grid)))
     chosen = {}
-    for name, by_rule in scores.items():
+    for k, tracker in enumerate(trackers):
+        by_rule = [scores[k] for scores in by_filter]
         best = max(range(len(by_rule)), key=lambda i: (by_rule[i].samota, -i))
-        chosen[name] = (grid[best], by_rule)
+        chosen[tracker.name] = (grid[best], by_rule)
     return chosen

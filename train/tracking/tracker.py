@@ -36,7 +36,7 @@ from train.tracking.association import diou_affinity, match
 from train.tracking.config import TrackerConfig
 from train.tracking.motion_model import MOTION_MODELS
 from train.tracking.split import SplitConfig
-from train.tracking.track_table import append, end_frame, new_tracks
+from train.tracking.track_table import TrackTable, append, end_frame, new_tracks
 from train.tracking.types import TrackedFrame, Tracklets
 
 _OVERLAP = slice(0, 2)  # a tracklet's boxes at t-2 and t-1
@@ -55,6 +55,16 @@ class Tracker:
         self._next_id = 0
         self._frames = 0
         self._fused: set[frozenset[int]] = set()  # ids of the pairs split at t-1
+
+    @property
+    def tracks(self) -> TrackTable:
+        """The live tracks after the last step, tentative and dying ones included (read, do not change)."""
+        return self._tracks
+
+    @property
+    def split_pairs(self) -> frozenset[frozenset[int]]:
+        """Ids of the track pairs the split module gave two boxes in the last step."""
+        return frozenset(self._fused)
 
     def step(self, tracklets: Tracklets) -> TrackedFrame:
         cfg, life, tracks = self.config.association, self.config.life_cycle, self._tracks
