@@ -38,7 +38,7 @@ ELSEWHERE = {
     "simgen-train eval": "tests/test_train_cli.py",
     "simgen-train detect": "tests/test_train_cli.py",
     "simgen-train study": "tests/test_study.py (tiny configs and scenario, 2 iterations)",
-    "simgen-train track": "tests/test_study.py (a tiny study's tracklets)",
+    "simgen-train table2": "tests/test_study.py (a tiny study's tracklets)",
 }
 
 

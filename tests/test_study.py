@@ -194,16 +194,16 @@ def test_table2_has_every_tracker_at_both_ious(study):
 
 
 def test_track_scores_a_studys_tracklet_files_as_the_study_did(study, tmp_path):
-    """`simgen-train track` on the study's val tracklets: the same ground truth, so the unfiltered rows are the
+    """`simgen-train table2` on the study's val tracklets: the same ground truth, so the unfiltered rows are the
     study's; the filters are chosen on the tracked clip itself (said so), and the module accounting is there."""
     _, configs, datasets, out, _ = study
     tracklets = out / "late" / "tracklets" / "clip_0001.npz"
-    code, stdout, stderr = run_main(main, "track", tracklets, "--dataset", datasets / NAME,
+    code, stdout, stderr = run_main(main, "table2", tracklets, "--dataset", datasets / NAME,
                                     "--config", configs / "late.yaml", "-o", tmp_path / "track", "--quiet")
     assert code == 0, stderr[-2000:]
     assert stdout.split() == [str(tmp_path / "track" / "table2.md"), str(tmp_path / "track" / "table2.csv")]
     text = (tmp_path / "track" / "table2.md").read_text()
-    assert "chosen on the tracked clips themselves" in text and "Command: `simgen-train track " in text
+    assert "chosen on the tracked clips themselves" in text and "Command: `simgen-train table2 " in text
     assert f"| {FULL_TRACKER} | " in text.split("## What birth/death and split do")[1]
     unfiltered = [{k: v for k, v in r.items() if k != "filter"}
                   for r in csv.DictReader(open(out / "table2.csv")) if r["tracklets"] == "unfiltered"]
@@ -217,7 +217,7 @@ def test_track_refuses_a_clip_the_dataset_lacks_in_one_line(study, tmp_path):
     stray = tmp_path / "stray.npz"
     data = dict(np.load(out / "late" / "tracklets" / "clip_0001.npz"))
     np.savez(stray, **{**data, "clip": np.str_("clip_0009")})
-    code, stdout, stderr = run_main(main, "track", stray, "--dataset", datasets / NAME,
+    code, stdout, stderr = run_main(main, "table2", stray, "--dataset", datasets / NAME,
                                     "--config", configs / "late.yaml", "-o", tmp_path / "track", "--quiet")
     assert_one_line_refusal(code, stdout, stderr, "stray clip")
     assert "clip_0009" in stderr and not (tmp_path / "track").exists()
@@ -227,7 +227,7 @@ def test_track_reads_a_studys_filters_and_refuses_bad_ones_in_one_line(study, tm
     _, configs, datasets, out, _ = study
     tracklets = out / "late" / "tracklets" / "clip_0001.npz"
     common = ("--dataset", datasets / NAME, "--config", configs / "late.yaml", "--quiet")
-    code, _, stderr = run_main(main, "track", tracklets, *common, "-o", tmp_path / "given", "--filters-from",
+    code, _, stderr = run_main(main, "table2", tracklets, *common, "-o", tmp_path / "given", "--filters-from",
                                out / "table2.csv")
     assert code == 0, stderr[-2000:]
     given = {r["tracker"]: r["filter"] for r in csv.DictReader(open(tmp_path / "given" / "table2.csv"))
@@ -239,7 +239,7 @@ def test_track_reads_a_studys_filters_and_refuses_bad_ones_in_one_line(study, tm
     for extra, said in (((("--filters-from", tmp_path / "bad.csv")), "not a study's table2.csv"),
                         (("--filters-from", out / "table2.csv", "--choose-on", tracklets), "not both"),
                         (("--filters-from", tmp_path / "missing.csv"), "missing.csv")):
-        code, stdout, stderr = run_main(main, "track", tracklets, *common, "-o", tmp_path / "bad", *extra)
+        code, stdout, stderr = run_main(main, "table2", tracklets, *common, "-o", tmp_path / "bad", *extra)
         assert_one_line_refusal(code, stdout, stderr, extra)
         assert said in stderr and not (tmp_path / "bad").exists()
 

@@ -1,4 +1,4 @@
-"""`simgen-train fit | eval | detect | study | track`: the paper's PointPillars tracklet detector on simgen datasets.
+"""`simgen-train fit | eval | detect | study | table2`: the paper's PointPillars tracklet detector on simgen datasets.
 
 Datasets are read only through simgen.datasets. Bad input (a missing dataset or config, a file
 that is not our checkpoint, an option out of range, a model that would not fit in the device's
@@ -248,7 +248,7 @@ def _study(args: argparse.Namespace) -> int:
     return 0
 
 
-def _track(args: argparse.Namespace) -> int:
+def _table2(args: argparse.Namespace) -> int:
     """Table 2 of tracklet files: each tracker's filter read from --filters-from, or chosen on --choose-on (else on
     the tracked files), then every tracker on the tracked files, scored against the dataset's labels, and what its
     birth/death and split modules did."""
@@ -273,7 +273,7 @@ def _track(args: argparse.Namespace) -> int:
         filters = choose_tracklet_filters(choose_on, tracked, configs, not args.quiet, args.workers)
     results = track(tracked, configs, filters, not args.quiet)
     counts, pairs = module_counts(tracked, configs, filters), split_window_pairs(tracked, configs, filters)
-    command = shlex.join(["simgen-train", "track", *args.tracklets, "--dataset", args.dataset, "--config",
+    command = shlex.join(["simgen-train", "table2", *args.tracklets, "--dataset", args.dataset, "--config",
                           args.config, "-o", args.output, "--workers", str(args.workers)]
                          + (["--choose-on", *args.choose_on] if args.choose_on else [])
                          + (["--filters-from", args.filters_from] if args.filters_from else [])
@@ -376,7 +376,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=_study)
 
-    p = sub.add_parser("track", help="Table 2 of tracklet files already written (`detect`, a study's "
+    p = sub.add_parser("table2", help="Table 2 of tracklet files already written (`detect`, a study's "
                        "late/tracklets/): every tracker on them, scored against the dataset's labels, into OUT")
     p.add_argument("tracklets", nargs="+", help="tracklet .npz files, one per clip")
     p.add_argument("--dataset", required=True, help="the dataset the tracklets were detected on (its labels)")
@@ -392,7 +392,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default: train/configs/tracking)")
     p.add_argument("--workers", type=WORKERS, default=1, help="processes scoring the candidate filters (default 1)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
-    p.set_defaults(func=_track)
+    p.set_defaults(func=_table2)
     return parser
 
 

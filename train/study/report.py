@@ -259,7 +259,7 @@ def tracking_markdown(
     command: str, tracked: ClipSet, trackers: list[TrackerResult], filters: dict[str, FilterChoice], chosen_on: str,
     counts: dict[str, ModuleCounts], pairs: dict[str, ClosePairs], seconds: float,
 ) -> str:
-    """`simgen-train track`'s Table 2: tracklet files already written, each tracker on them against the labels."""
+    """`simgen-train table2`'s Table 2: tracklet files already written, each tracker on them against the labels."""
     frames = sum(len(tracked.frames[c]) for c in tracked.clips)
     lines = [
         "# Table 2 of tracklet files: tracking them against the dataset's labels", "",
