@@ -254,7 +254,8 @@ class BagWriter:
         self.layout = layout
         self.messages = 0
 
-    def _write(self, topic: str, schema: str, message: dict, stamp_ns: int) -> None:
+    def write(self, topic: str, schema: str, message: dict, stamp_ns: int) -> None:
+        """One message of `schema` (one of SCHEMAS) on `topic`, its channel registered on first use."""
         if topic not in self.channels:
             self.channels[topic] = self.writer.register_channel(
                 topic, "cdr", self.schemas[schema], {"offered_qos_profiles": offered_qos_profiles(topic)}
@@ -264,7 +265,7 @@ class BagWriter:
         self.messages += 1
 
     def _write_tf_static(self, stamp_ns: int) -> None:
-        self._write(TF_STATIC_TOPIC, SCHEMAS[2], tf_static_message(self.sensors, stamp_ns), stamp_ns)
+        self.write(TF_STATIC_TOPIC, SCHEMAS[2], tf_static_message(self.sensors, stamp_ns), stamp_ns)
 
     def add(self, frame: Frame) -> None:
         stamp_ns = nanoseconds(frame.time_s)
@@ -275,12 +276,12 @@ class BagWriter:
             for info in self.sensors:
                 frame_id = info.name if self.layout.sensor_frame else WORLD_FRAME
                 points = cloud_points(frame, sensor == info.sensor_id, stamp_ns, self.layout, info)
-                self._write(points_topic(info.name), SCHEMAS[0], cloud_message(points, stamp_ns, self.layout, frame_id), stamp_ns)
+                self.write(points_topic(info.name), SCHEMAS[0], cloud_message(points, stamp_ns, self.layout, frame_id), stamp_ns)
         else:
             points = cloud_points(frame, slice(None), stamp_ns, self.layout)
-            self._write(ALL_POINTS_TOPIC, SCHEMAS[0], cloud_message(points, stamp_ns, self.layout), stamp_ns)
+            self.write(ALL_POINTS_TOPIC, SCHEMAS[0], cloud_message(points, stamp_ns, self.layout), stamp_ns)
         label_ns = nanoseconds(frame.label_time_s)
-        self._write(BOXES_TOPIC, SCHEMAS[1], markers_message(frame, label_ns), label_ns)
+        self.write(BOXES_TOPIC, SCHEMAS[1], markers_message(frame, label_ns), label_ns)
 
     def finish(self) -> None:
         if not self.messages:

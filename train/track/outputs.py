@@ -1,0 +1,166 @@
+"""What `track` writes, frame by frame as the tracks become final, into a staging folder inside OUT that
+replaces OUT's files only once the whole run has succeeded (bad input half-way leaves OUT as it was):
+
+- `kitti/<clip>.txt`: KITTI tracking results (train.evaluation.kitti's lines, numbered by the clip's frame);
+- `tracks.parquet`: the `tracks` table, a row per track and frame (TRACKS_SCHEMA, units in field metadata);
+- `mcap/<clip>.mcap`: a ROS 2 bag (simgen.datasets.ros2_bag's writer) with the frame's points and labels as
+  simgen writes them, and `/simgen/tracks`: per frame DELETEALL, then per track a CUBE (namespace `tracks`,
+  id = track id, one colour per id, dying tracks faint), its id as TEXT_VIEW_FACING (`track_ids`) and its
+  trajectory so far as a LINE_STRIP (`trajectories`, the last TRAIL_FRAMES frames).
+"""
+
+from __future__ import annotations
+
+import colorsys
+import contextlib
+import os
+import shutil
+from collections import deque
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import IO
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from simgen.datasets.frame import Frame
+from simgen.datasets.ros2_bag import SCHEMAS, BagWriter, PointLayout, nanoseconds
+from train.evaluation.kitti import kitti_lines
+from train.tracking.types import DYING, STATES, TrackedFrame
+
+TRACKS_TOPIC = "/simgen/tracks"
+TRAIL_FRAMES = 100  # a trajectory's line strip: its last 100 frames (10 s at 10 Hz)
+LINE_WIDTH_M = 0.1
+TEXT_HEIGHT_M = 0.5
+
+
+def _field(name: str, type_: pa.DataType, doc: str, unit: str = "") -> pa.Field:
+    return pa.field(name, type_, nullable=False, metadata={"doc": doc, "unit": unit})
+
+
+TRACKS_SCHEMA = pa.schema([
+    _field("clip", pa.string(), "clip id"),
+    _field("frame", pa.int32(), "frame index in the clip"),
+    _field("time_s", pa.float64(), "game time the box describes (the frame's label time)", "s"),
+    _field("track_id", pa.int64(), "track id, unique in the clip"),
+    *(_field(n, pa.float32(), f"box {d}, pitch frame", "m") for n, d in (
+        ("x", "centre x"), ("y", "centre y"), ("z", "centre z"), ("length", "length"), ("width", "width"),
+        ("height", "height"))),
+    _field("yaw", pa.float32(), "box heading about z, from +x", "rad"),
+    _field("score", pa.float32(), "the track's score: mean of its matched detections' scores"),
+    _field("state", pa.dictionary(pa.int8(), pa.string()), f"the track's state: {', '.join(STATES)}"),
+])
+
+
+def id_colour(track_id: int) -> tuple[float, float, float]:
+    """An RGB colour per track id (hues the golden angle apart), the same in every output."""
+    return colorsys.hsv_to_rgb((track_id * 0.618033988749895) % 1.0, 0.85, 1.0)
+
+
+def track_markers(tracked: TrackedFrame, trails: dict[int, deque], stamp_ns: int) -> dict:
+    """The MarkerArray of one frame's tracks; `trails` (track id -> recent centres) is updated."""
+    header = {"stamp": {"sec": stamp_ns // 1_000_000_000, "nanosec": stamp_ns % 1_000_000_000}, "frame_id": "pitch"}
+    markers = [{"header": header, "ns": "tracks", "id": 0, "type": 0, "action": 3, "pose": {"orientation": {"w": 1.0}}}]
+    states = tracked.states if tracked.states is not None else np.zeros(len(tracked.ids), np.int8)
+    for box, track, state in zip(tracked.boxes.tolist(), tracked.ids.tolist(), states.tolist()):
+        x, y, z, length, width, height, yaw = box
+        r, g, b = id_colour(track)
+        alpha = 0.3 if state == DYING else 0.8
+        trail = trails.setdefault(track, deque(maxlen=TRAIL_FRAMES))
+        trail.append({"x": x, "y": y, "z": 0.05})
+        common = {"header": header, "id": track, "action": 0, "frame_locked": False,
+                  "color": {"r": r, "g": g, "b": b, "a": alpha}}
+        turn = {"x": 0.0, "y": 0.0, "z": float(np.sin(yaw / 2)), "w": float(np.cos(yaw / 2))}
+        markers += [
+            {**common, "ns": "tracks", "type": 1, "text": STATES[state],
+             "pose": {"position": {"x": x, "y": y, "z": z}, "orientation": turn},
+             "scale": {"x": length, "y": width, "z": height}},
+            {**common, "ns": "track_ids", "type": 9, "text": str(track),
+             "pose": {"position": {"x": x, "y": y, "z": z + height / 2 + TEXT_HEIGHT_M}, "orientation": {"w": 1.0}},
+             "scale": {"z": TEXT_HEIGHT_M}},
+            {**common, "ns": "trajectories", "type": 4, "pose": {"orientation": {"w": 1.0}},
+             "scale": {"x": LINE_WIDTH_M}, "points": list(trail)},
+        ]
+    return {"markers": markers}
+
+
+class ClipBag:
+    """One clip's output bag: each frame's points and labels, then its tracks on TRACKS_TOPIC."""
+
+    def __init__(self, stream: IO[bytes], sensors: Sequence, layout: PointLayout) -> None:
+        self.writer = BagWriter(stream, sensors, layout)
+        self.trails: dict[int, deque] = {}
+
+    def add(self, frame: Frame, tracked: TrackedFrame) -> None:
+        self.writer.add(frame)
+        stamp_ns = nanoseconds(frame.label_time_s)
+        self.writer.write(TRACKS_TOPIC, SCHEMAS[1], track_markers(tracked, self.trails, stamp_ns), stamp_ns)
+
+    def finish(self) -> None:
+        self.writer.finish()
+
+
+def track_rows(clip: str, index: int, time_s: float, tracked: TrackedFrame) -> dict[str, list]:
+    """One frame's rows of the `tracks` table, by column."""
+    n, boxes = len(tracked.ids), tracked.boxes
+    states = tracked.states if tracked.states is not None else np.zeros(n, np.int8)
+    columns = {"clip": [clip] * n, "frame": [index] * n, "time_s": [time_s] * n, "track_id": tracked.ids.tolist()}
+    columns |= {name: boxes[:, k].tolist() for k, name in enumerate(("x", "y", "z", "length", "width", "height",
+                                                                   "yaw"))}
+    return columns | {"score": tracked.scores.tolist(), "state": [STATES[s] for s in states.tolist()]}
+
+
+class TrackOutputs:
+    """The run's files, written into `staging` clip by clip; `publish` moves them into OUT."""
+
+    def __init__(self, staging: Path, sensors: Sequence, layout: PointLayout, bags: bool) -> None:
+        self.staging, self.sensors, self.layout, self.bags = staging, sensors, layout, bags
+        (staging / "kitti").mkdir(parents=True)
+        if bags:
+            (staging / "mcap").mkdir()
+        self.table = pq.ParquetWriter(staging / "tracks.parquet", TRACKS_SCHEMA)
+        self.files = contextlib.ExitStack()
+        self.clip: str | None = None
+
+    def start_clip(self, clip: str) -> None:
+        self.clip, self.rows = clip, {name: [] for name in TRACKS_SCHEMA.names}
+        self.kitti = self.files.enter_context(open(self.staging / "kitti" / f"{clip}.txt", "w"))
+        if self.bags:
+            stream = self.files.enter_context(open(self.staging / "mcap" / f"{clip}.mcap", "wb"))
+            self.bag = ClipBag(stream, self.sensors, self.layout)
+
+    def add(self, frame: Frame, tracked: TrackedFrame) -> None:
+        """One final frame of the current clip: the dataset's (or bag's) frame and its tracks."""
+        self.kitti.write("".join(line + "\n" for line in kitti_lines([tracked], numbers=[frame.index])))
+        for name, values in track_rows(frame.clip, frame.index, frame.label_time_s, tracked).items():
+            self.rows[name] += values
+        if self.bags:
+            self.bag.add(frame, tracked)
+
+    def end_clip(self) -> None:
+        self.table.write_table(pa.table(self.rows, schema=TRACKS_SCHEMA))
+        if self.bags:
+            self.bag.finish()
+        self.files.close()
+
+    def close(self) -> None:
+        self.table.close()
+
+
+@contextlib.contextmanager
+def staged(out: Path) -> Iterator[Path]:
+    """A staging folder in OUT (created); on success its files replace OUT's, on any error it is removed."""
+    out.mkdir(parents=True, exist_ok=True)
+    staging = out / f".track-{os.getpid()}"
+    shutil.rmtree(staging, ignore_errors=True)
+    staging.mkdir()
+    try:
+        yield staging
+        for path in sorted(staging.iterdir()):
+            target = out / path.name
+            if target.is_dir() and path.is_dir():
+                shutil.rmtree(target)
+            os.replace(path, target)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
