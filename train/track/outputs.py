@@ -11,7 +11,6 @@ replaces OUT's files only once the whole run has succeeded (bad input half-way l
 
 from __future__ import annotations
 
-import colorsys
 import contextlib
 import os
 import shutil
@@ -26,6 +25,7 @@ import pyarrow.parquet as pq
 
 from simgen.datasets.frame import Frame
 from simgen.datasets.ros2_bag import SCHEMAS, BagWriter, PointLayout, nanoseconds
+from simgen.view.trajectories import id_colour
 from train.evaluation.kitti import kitti_lines
 from train.tracking.types import DYING, STATES, TrackedFrame
 
@@ -51,11 +51,6 @@ TRACKS_SCHEMA = pa.schema([
     _field("score", pa.float32(), "the track's score: mean of its matched detections' scores"),
     _field("state", pa.dictionary(pa.int8(), pa.string()), f"the track's state: {', '.join(STATES)}"),
 ])
-
-
-def id_colour(track_id: int) -> tuple[float, float, float]:
-    """An RGB colour per track id (hues the golden angle apart), the same in every output."""
-    return colorsys.hsv_to_rgb((track_id * 0.618033988749895) % 1.0, 0.85, 1.0)
 
 
 def track_markers(tracked: TrackedFrame, trails: dict[int, deque], stamp_ns: int) -> dict:
@@ -150,7 +145,9 @@ class TrackOutputs:
 
 @contextlib.contextmanager
 def staged(out: Path) -> Iterator[Path]:
-    """A staging folder in OUT (created); on success its files replace OUT's, on any error it is removed."""
+    """A staging folder in OUT; on success its files replace OUT's, on any error it is removed (and so is OUT,
+    if this made it)."""
+    made = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     staging = out / f".track-{os.getpid()}"
     shutil.rmtree(staging, ignore_errors=True)
@@ -162,5 +159,9 @@ def staged(out: Path) -> Iterator[Path]:
             if target.is_dir() and path.is_dir():
                 shutil.rmtree(target)
             os.replace(path, target)
-    finally:
+    except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
+        if made:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+    shutil.rmtree(staging, ignore_errors=True)
