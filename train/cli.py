@@ -198,9 +198,10 @@ def _track(args: argparse.Namespace) -> int:
         None if args.detections is None else Path(args.detections),
         _split(args.split), args.online, args.rate, args.queue, rule, device, not args.quiet,
     )
-    command = shlex.join(["simgen-train", *sys.argv[2:]]) if sys.argv[1:2] == ["track"] else "simgen-train track"
+    command = shlex.join(["simgen-train", *sys.argv[1:]]) if sys.argv[1:2] == ["track"] else "simgen-train track"
     result = run_track(options, lambda folder, r: write_metrics(folder, r, tracker.name, command))
-    print(f"{out}: {result.tracks} tracks over {result.frames} frames of {len(result.clips)} clips in "
+    clips = f"{len(result.clips)} clip{'' if len(result.clips) == 1 else 's'}"
+    print(f"{out}: {result.tracks} tracks over {result.frames} frames of {clips} in "
           f"{result.seconds:.1f} s; kitti/<clip>.txt, tracks.parquet, mcap/<clip>.mcap")
     if result.latency is not None:
         print(result.latency.summary())

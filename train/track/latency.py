@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -53,13 +54,19 @@ class Pacer:
 
 @dataclass
 class Stopwatch:
-    """One frame's stage times: `lap(stage)` charges the time since the last lap to that stage."""
+    """One frame's stage times: `lap(stage)` charges the time since the last lap to that stage. `clock`: wall
+    time (the default), or e.g. `time.process_time` for the CPU time of the process (a benchmark on a shared
+    machine)."""
 
-    last: float = field(default_factory=time.perf_counter)
+    clock: Callable[[], float] = time.perf_counter
+    last: float = 0.0
     ms: dict[str, float] = field(default_factory=lambda: dict.fromkeys(STAGES, 0.0))
 
+    def __post_init__(self) -> None:
+        self.last = self.clock()
+
     def lap(self, stage: str) -> None:
-        now = time.perf_counter()
+        now = self.clock()
         self.ms[stage] += 1000.0 * (now - self.last)
         self.last = now
 

@@ -20,7 +20,8 @@ def metric_values(result: TrackResult) -> tuple:
 def metrics_markdown(result: TrackResult, tracker: str, command: str) -> str:
     return "\n".join([
         f"# Tracking: {tracker}", "", f"`{command}`", "",
-        f"{len(result.clips)} clips, {result.frames} frames, {result.tracks} tracks. sAMOTA, AMOTA, AMOTP, MOTA, MOTP "
+        f"{len(result.clips)} clip{'' if len(result.clips) == 1 else 's'}, {result.frames} frames, "
+        f"{result.tracks} tracks. sAMOTA, AMOTA, AMOTP, MOTA, MOTP "
         f"in percent at 3D IoU >= {MIN_IOU:g} (AB3DMOT's evaluation); MOTA, MOTP, IDS and FRAG at the score threshold "
         "of the best MOTA; HOTA on 3D IoU, centre HOTA on pitch-plane centre distance (5 m Gaussian tolerance).", "",
         *table2_head(), table2_row(tracker, metric_values(result)), "",

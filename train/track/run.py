@@ -83,6 +83,7 @@ class TrackOptions:
     rule: TrackletFilter | None  # None: the tracklets as they are
     device: torch.device
     progress: bool
+    clock: Callable[[], float] = time.perf_counter  # of the stage latencies (wall time)
 
 
 @dataclass(frozen=True)
@@ -216,7 +217,7 @@ class _Run:
         source = self.bag.frames() if self.bag is not None else iter(range(self.dataset.num_frames(clip)))
         while True:
             taken = self.pacer.wait(self.k)
-            watch = Stopwatch()
+            watch = Stopwatch(self.options.clock)
             item = next(source, None)
             if item is None:
                 return
