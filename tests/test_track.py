@@ -222,3 +222,32 @@ def test_bad_sources_are_one_line_and_write_nothing(tiny, tmp_path, capsys):
                          tmp_path / "out")
     assert code == 2 and err.count("\n") == 1 and "not in the livox point layout" in err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.engine
+def test_fig6_draws_labelled_beside_tracked_trajectories(tiny, tmp_path, capsys):
+    import cv2
+
+    from simgen.cli import main as simgen
+
+    dataset, _, _ = tiny
+    write_detections(dataset, tmp_path / "detections", np.random.default_rng(1))
+    code, _, err = track(capsys, "--dataset", dataset, "--detections", tmp_path / "detections", "-o", tmp_path / "out")
+    assert code == 0, err
+    code = simgen(["view", str(dataset), "--clip", VAL, "--tracks", str(tmp_path / "out"), "-o", str(tmp_path / "v")])
+    out = capsys.readouterr().out
+    assert code == 0 and "ID switch" in out
+    picture = cv2.imread(str(tmp_path / "v" / f"{VAL}_tracks.png"))
+    assert picture.shape[1] > 2 * picture.shape[0]  # two pitches side by side
+    assert (tmp_path / "v" / f"{VAL}_tracks.mp4").read_bytes()[4:8] == b"ftyp"
+
+
+def test_an_id_switch_is_where_a_labelled_player_changes_track():
+    from simgen.view.trajectories import Paths, id_switches
+
+    def paths(ids, xs):
+        return Paths([np.array([i]) for i in ids], [np.array([[x, 0.0]]) for x in xs], [np.zeros(1, bool)] * len(ids))
+
+    labels = paths([1, 1, 1, 1], [0.0, 0.5, 1.0, 1.5])
+    assert id_switches(labels, paths([5, 5, 7, 7], [0.1, 0.6, 1.1, 1.6])) == [(2, 1.0, 0.0)]
+    assert id_switches(labels, paths([5, 5, 7, 7], [0.1, 0.6, 9.0, 1.6])) == [(3, 1.5, 0.0)]  # too far: no match
