@@ -51,28 +51,38 @@ def _canvases(encoded: Encoded, wanted: list[int], grid_cells: int) -> Batch:
 
 class WindowFeatures:
     """The head's input of one window after another (in clip order), each canvas's backbone levels and fusion
-    terms computed once and kept while a window holds it: `pillars` (the new canvases' pillar batch, CPU) then
-    `fuse` (the network up to the head), two calls so that a caller can time them apart."""
+    terms computed once, one canvas at a time, and kept while a window holds it: `pillars` (the new canvases'
+    pillar batches, CPU) then `fuse` (the network up to the head), two calls so that a caller can time them
+    apart. `keep` computes a frame's canvas before any window holds it (a sensor's first frames)."""
 
     def __init__(self, folded: Detector, config: DetectorConfig, device: torch.device) -> None:
         self.folded, self.config, self.device = folded, config, device
         self.kept: dict[tuple[str, int, int], list[torch.Tensor]] = {}
 
-    def pillars(self, encoded: Encoded) -> tuple[list[tuple[str, int, int]], list[int], Batch | None]:
-        """The window's canvas keys, which of them are new, and the new ones' pillar batch (None: none new)."""
+    def pillars(self, encoded: Encoded) -> tuple[list[tuple[str, int, int]], list[tuple[int, Batch]]]:
+        """The window's canvas keys, and each new canvas's position in them with its pillar batch."""
         rows, cols = self.config.data.grid_size
         keys = canvas_keys(encoded.sample, self.config)
-        missing = [k for k, key in enumerate(keys) if key not in self.kept]
-        return keys, missing, _canvases(encoded, missing, rows * cols) if missing else None
+        return keys, [(k, _canvases(encoded, [k], rows * cols)) for k, key in enumerate(keys) if key not in self.kept]
 
-    def fuse(self, keys: list[tuple[str, int, int]], missing: list[int], batch: Batch | None) -> torch.Tensor:
+    def _terms(self, batch: Batch) -> list[torch.Tensor]:
+        levels = self.folded.canvas_levels(batch.to(self.device), 1)
+        return [term[0] for term in self.folded.fusion.frame_terms(levels)]
+
+    def fuse(self, keys: list[tuple[str, int, int]], batches: list[tuple[int, Batch]]) -> torch.Tensor:
         """The head's input (1, C, H, W) of the window `pillars` prepared."""
-        if batch is not None:
-            levels = self.folded.canvas_levels(batch.to(self.device), len(missing))
-            terms = self.folded.fusion.frame_terms(levels)
-            self.kept.update({keys[k]: [term[j] for term in terms] for j, k in enumerate(missing)})
+        self.kept.update({keys[k]: self._terms(batch) for k, batch in batches})
         self.kept = {key: self.kept[key] for key in keys}
         return self.folded.fusion.fuse_frame_terms([self.kept[key] for key in keys])
+
+    def keep(self, encoded: Encoded) -> None:
+        """Compute and keep the canvas of a lone frame (`encoded`: a sample of that frame alone, canvas 0) that
+        later windows will hold, where a canvas is one frame (late fusion, single frame)."""
+        rows, cols = self.config.data.grid_size
+        fusion = self.config.model.fusion
+        if fusion.canvases == fusion.input_frames > 1:
+            key = (encoded.sample.clip, encoded.sample.index, 0)
+            self.kept[key] = self._terms(_canvases(encoded, [0], rows * cols))
 
 
 def fused_features(folded: Detector, config: DetectorConfig, samples: Iterable[Encoded], device: torch.device

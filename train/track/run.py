@@ -37,7 +37,7 @@ from simgen.datasets.frame import Frame
 from simgen.datasets.ros2_bag import SIMGEN_LAYOUT, XYZI_LAYOUT
 from simgen.errors import UserError
 from train.config import TRACKLET_FRAMES, DataConfig, DetectorConfig
-from train.data import Sample, crop, encode_sample, load_sample
+from train.data import Sample, crop, encode_sample, frame_points, load_sample
 from train.detector.folding import fold_batchnorm
 from train.detector.inference import predict
 from train.detector.model import Detector
@@ -136,6 +136,18 @@ class _Detector:
         with torch.inference_mode():
             decode_tracklets(*head(self.folded, self.config, windows.fuse(*windows.pillars(
                 encode_sample(sample, self.config)))), self.folded.head.anchors, self.config)
+
+    def prime(self, frame: Frame, watch: Stopwatch) -> None:
+        """A frame before the clip's first window: its canvas computed as it arrives, for the windows to come."""
+        points = frame_points(frame)
+        nothing = np.zeros((0, TRACKLET_FRAMES, 7), np.float32)
+        sample = Sample(frame.clip, frame.index, (points,), nothing, np.zeros((0, TRACKLET_FRAMES), bool),
+                        np.zeros(0, np.int64), np.zeros(0, bool))
+        encoded = encode_sample(crop(sample, self.config.data.point_range_m), self.config)
+        watch.lap("pillars")
+        with torch.inference_mode():
+            self.windows.keep(encoded)
+        watch.lap("network")
 
     def __call__(self, window: Window, clip: str, index: int, watch: Stopwatch) -> Tracklets:
         sample = crop(load_sample(window, clip, index, self.config), self.config.data.point_range_m)
@@ -275,6 +287,10 @@ class _Run:
         window = Window(Path(self.root), None if self.dataset is None else self.dataset.frame)
         for frame, taken, watch in self.frames(clip, window):
             if frame.index < self.first:
+                if self.detector is not None and taken:
+                    self.detector.prime(frame, watch)
+                    if self.latency is not None:
+                        self.latency.add(clip, frame.index, watch)
                 continue
             if taken:
                 if self.detector is not None:
