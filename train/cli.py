@@ -293,37 +293,20 @@ def _seed_list(text: str) -> tuple[int, ...]:
         raise argparse.ArgumentTypeError(str(error).removeprefix("--seeds: ")) from None
 
 
-def _hertz(text: str) -> float:
-    """An argparse type: a frame rate in (0, 1000] Hz."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text[:20]!r} is not a number of frames per second") from None
-    if not 0 < value <= 1000:
-        raise argparse.ArgumentTypeError(f"{value:g} is out of range: more than 0 and at most 1000 Hz")
-    return value
+def _bounded(what: str, low: float, high: float, unit: str = "", above_low: bool = False):
+    """An argparse type: a number (`what`, in `unit`) from low (or above it, `above_low`) to high."""
 
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text[:20]!r} is not {what}") from None
+        if not (low < value if above_low else low <= value) or not value <= high:
+            start = f"more than {low:g}" if above_low else f"{low:g}"
+            raise argparse.ArgumentTypeError(f"{value:g} is out of range: {start} to {high:g}{unit}")
+        return value
 
-def _fraction(text: str) -> float:
-    """An argparse type: a number in [0, 1]."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text[:20]!r} is not a number") from None
-    if not 0 <= value <= 1:
-        raise argparse.ArgumentTypeError(f"{value:g} is out of range: 0 to 1")
-    return value
-
-
-def _metres(text: str) -> float:
-    """An argparse type: a distance in [0, 10] m."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text[:20]!r} is not a number of metres") from None
-    if not 0 <= value <= 10:
-        raise argparse.ArgumentTypeError(f"{value:g} is out of range: 0 to 10 m")
-    return value
+    return parse
 
 
 def _seconds(text: str) -> float:
@@ -402,14 +385,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tracker", default=str(TRACKER_CONFIGS / DEFAULT_TRACKER), metavar="YAML",
                    help=f"tracker config (default: the paper's full tracker, train/configs/tracking/{DEFAULT_TRACKER})")
     p.add_argument("--split", choices=SPLITS, default="val", help="clips to track (default: val)")
-    p.add_argument("--min-score", type=_fraction, default=DEFAULT_FILTER.min_score, metavar="S",
+    p.add_argument("--min-score", type=_bounded("a score", 0.0, 1.0), default=DEFAULT_FILTER.min_score, metavar="S",
                    help=f"track only detections scoring at least S (default {DEFAULT_FILTER.min_score:g})")
-    p.add_argument("--nms-m", type=_metres, default=DEFAULT_FILTER.nms_threshold, metavar="M",
+    p.add_argument("--nms-m", type=_bounded("a number of metres", 0.0, 10.0, " m"),
+                   default=DEFAULT_FILTER.nms_threshold, metavar="M",
                    help="drop a detection whose centre is within M metres of a better one (default "
                    f"{DEFAULT_FILTER.nms_threshold:g}; 0: none)")
     p.add_argument("--online", action="store_true", help="frame by frame, as a sensor delivers them, nothing looking "
                    "ahead; each stage's latency per frame in latency.csv")
-    p.add_argument("--rate", type=_hertz, metavar="HZ", help="with --online: frames arrive at HZ; count late "
+    p.add_argument("--rate", type=_bounded("a number of frames per second", 0.0, 1000.0, " Hz", above_low=True),
+                   metavar="HZ", help="with --online: frames arrive at HZ; count late "
                    "and dropped frames")
     p.add_argument("--queue", type=_count("--queue", 1, 10_000), default=DEFAULT_QUEUE, metavar="N",
                    help=f"with --rate: a frame is dropped when N newer ones wait (default {DEFAULT_QUEUE})")
