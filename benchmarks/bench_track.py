@@ -2,7 +2,8 @@
 tracker alone against AB3DMOT's config.
 
 1. Detector + tracker, frame by frame as a sensor delivers them (train.track.run, online): the compact late
-   model (train/configs/late.yaml) and the paper's full tracker on a generated paper_x1 clip (11 Hz),
+   model (train/configs/late.yaml) and the paper's full tracker on a generated paper_x1 clip (11 Hz) read
+   from its ROS 2 bag (`simgen export`, each frame's cloud decoded as it comes, as from a sensor),
    one torch thread, BLAS threads 1. The weights are untrained, so its inference keeps every candidate
    (score threshold 0) up to `--detections` boxes a frame after NMS (default 47: what the paper_x1 study's
    trained model gave per val frame, docs/study_paper_x1_1200/table2.md), and the tracker sees them through
@@ -56,13 +57,13 @@ RATE_HZ = 11.0
 PLAYERS = 25
 
 
-def make_dataset(folder: Path, frames: int) -> Path:
-    """One clip of the paper's x1 scenario."""
-    out = folder / "paper_x1"
-    command = [sys.executable, "-m", "simgen.cli", "generate", str(ROOT / "scenarios" / "paper_x1.yaml"), "-o",
-               str(out), "--frames", str(frames), "--clips", "1"]
-    subprocess.run(command, check=True, capture_output=True, cwd=ROOT)
-    return out
+def make_bag(folder: Path, frames: int) -> Path:
+    """One clip of the paper's x1 scenario, as a sensor's ROS 2 bag (`simgen export`)."""
+    out, bag = folder / "paper_x1", folder / "clip_0000.mcap"
+    for command in (["generate", str(ROOT / "scenarios" / "paper_x1.yaml"), "-o", str(out), "--frames", str(frames),
+                     "--clips", "1"], ["export", str(out), "-o", str(bag)]):
+        subprocess.run([sys.executable, "-m", "simgen.cli", *command], check=True, capture_output=True, cwd=ROOT)
+    return bag
 
 
 def compact_late(detections: int) -> Model:
@@ -75,8 +76,8 @@ def compact_late(detections: int) -> Model:
     return Model(Detector(config).eval(), config)
 
 
-def online(dataset: Path, out: Path, model: Model, rate_hz: float | None, clock: Callable[[], float]):
-    options = TrackOptions(out, shipped_tracker(FULL_TRACKER), str(dataset), None, "simgen", model, None, None, None,
+def online(bag: Path, out: Path, model: Model, rate_hz: float | None, clock: Callable[[], float]):
+    options = TrackOptions(out, shipped_tracker(FULL_TRACKER), None, bag, "simgen", model, None, None, None,
                            True, rate_hz, 64, TrackletFilter(0.0, "centre", DEFAULT_FILTER.nms_threshold),
                            torch.device("cpu"), False, clock)
     return run_track(options, lambda folder, result: None)
@@ -109,9 +110,9 @@ def main() -> None:
     torch.set_num_threads(1)
     model = compact_late(args.detections)
     with tempfile.TemporaryDirectory() as folder:
-        dataset = make_dataset(Path(folder), args.frames)
-        free = online(dataset, Path(folder) / "free", model, None, time.process_time)
-        paced = online(dataset, Path(folder) / "paced", model, RATE_HZ, time.perf_counter)
+        bag = make_bag(Path(folder), args.frames)
+        free = online(bag, Path(folder) / "free", model, None, time.process_time)
+        paced = online(bag, Path(folder) / "paced", model, RATE_HZ, time.perf_counter)
     table = np.array([[ms[s] for s in STAGES] for _, _, ms in free.latency.rows])
     total = table.sum(axis=1)
     period_ms = 1000.0 / RATE_HZ
@@ -127,10 +128,11 @@ def main() -> None:
         print(cells, flush=True)
     write_results(
         "track", "Online tracking benchmark",
-        f"Written by `benchmarks/bench_track.py`: one paper_x1 clip of {args.frames} frames ({len(free.latency.rows)} "
-        f"tracked: the late model's first window is frame 2), the compact late model (untrained, keeping its "
-        f"{args.detections} best boxes a frame) and the paper's full tracker, `track --online`, one torch thread, "
-        f"BLAS threads 1. {machine(torch=torch.__version__, numpy=np.__version__)}",
+        f"Written by `benchmarks/bench_track.py`: one paper_x1 clip of {args.frames} frames read from its ROS 2 bag "
+        f"(tracked from frame 2, the "
+        f"late model's first window; frames 0 and 1 computed as they arrive, and timed), the compact late model "
+        f"(untrained, keeping its {args.detections} best boxes a frame) and the paper's full tracker, "
+        f"`track --online`, one torch thread, BLAS threads 1. {machine(torch=torch.__version__, numpy=np.__version__)}",
         "Latency per frame (ms of the process's CPU time: the shared machine's load left out), after the network's "
         "warm-up:",
         markdown_table(["stage", "p50", "p99", "max"], latency_rows),

@@ -31,6 +31,7 @@ from train.tracking.types import DYING, STATES, TrackedFrame
 
 TRACKS_TOPIC = "/simgen/tracks"
 TRAIL_FRAMES = 100  # a trajectory's line strip: its last 100 frames (10 s at 10 Hz)
+ROW_GROUP_FRAMES = 100  # the tracks table is written 100 frames at a time: memory flat in a clip's length
 LINE_WIDTH_M = 0.1
 TEXT_HEIGHT_M = 0.5
 
@@ -119,7 +120,7 @@ class TrackOutputs:
         self.clip: str | None = None
 
     def start_clip(self, clip: str) -> None:
-        self.clip, self.rows = clip, {name: [] for name in TRACKS_SCHEMA.names}
+        self.clip, self.rows, self.frames = clip, {name: [] for name in TRACKS_SCHEMA.names}, 0
         self.kitti = self.files.enter_context(open(self.staging / "kitti" / f"{clip}.txt", "w"))
         if self.bags:
             stream = self.files.enter_context(open(self.staging / "mcap" / f"{clip}.mcap", "wb"))
@@ -130,11 +131,19 @@ class TrackOutputs:
         self.kitti.write("".join(line + "\n" for line in kitti_lines([tracked], numbers=[frame.index])))
         for name, values in track_rows(frame.clip, frame.index, frame.label_time_s, tracked).items():
             self.rows[name] += values
+        self.frames += 1
+        if self.frames % ROW_GROUP_FRAMES == 0:
+            self._write_rows()
         if self.bags:
             self.bag.add(frame, tracked)
 
+    def _write_rows(self) -> None:
+        if self.rows["clip"]:
+            self.table.write_table(pa.table(self.rows, schema=TRACKS_SCHEMA))
+        self.rows = {name: [] for name in TRACKS_SCHEMA.names}
+
     def end_clip(self) -> None:
-        self.table.write_table(pa.table(self.rows, schema=TRACKS_SCHEMA))
+        self._write_rows()
         if self.bags:
             self.bag.finish()
         self.files.close()

@@ -205,6 +205,8 @@ class _Run:
             self.clips = [c for c in self.dataset.clips if split is None or self.dataset.split(c) == split]
             if not self.clips:
                 raise UserError(f"{self.root}: no clips in the {options.split!r} split")
+            if options.online:  # every file's checksum before the first frame arrives, not while it is read
+                self.dataset.verify()
             self.sensors = list(self.dataset.manifest.sensors)
             self.layout = SIMGEN_LAYOUT if self.dataset.plugin.carries.point_fields else XYZI_LAYOUT
         self.found: dict[str, dict[int, Tracklets]] = {}
