@@ -97,9 +97,12 @@ class BagFrames:
         if summary is None:
             raise UserError(f"--bag {path}: an MCAP file without a summary (not finished?)")
         schemas = {i: s.name for i, s in summary.schemas.items()}
-        self.topics = sorted(c.topic for c in summary.channels.values() if schemas.get(c.schema_id) == POINTCLOUD2)
+        clouds = {c.topic: i for i, c in summary.channels.items() if schemas.get(c.schema_id) == POINTCLOUD2}
+        self.topics = sorted(clouds)
         if not self.topics:
             raise UserError(f"--bag {path}: no points (no sensor_msgs/msg/PointCloud2 topic)")
+        counts = summary.statistics.channel_message_counts if summary.statistics is not None else {}
+        self.count = min((counts[i] for i in clouds.values() if i in counts), default=None)  # frames, if the bag says
 
     def frames(self) -> Iterator[Frame]:
         """Frames in stamp order, each as soon as every points topic has delivered its cloud of that stamp."""

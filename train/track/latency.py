@@ -25,9 +25,9 @@ DEFAULT_QUEUE = 64
 class Pacer:
     """Frame arrival times at `rate_hz` (None: as fast as they are processed, nothing late or dropped)."""
 
-    def __init__(self, rate_hz: float | None, queue: int = DEFAULT_QUEUE) -> None:
+    def __init__(self, rate_hz: float | None, queue: int = DEFAULT_QUEUE, frames: int | None = None) -> None:
         self.period = None if rate_hz is None else 1.0 / rate_hz
-        self.queue, self.start = queue, None
+        self.queue, self.frames, self.start = queue, frames, None  # frames: how many the sensor will deliver
         self.late = self.dropped = 0
 
     def wait(self, k: int) -> bool:
@@ -40,7 +40,8 @@ class Pacer:
         if now < arrival:
             time.sleep(arrival - now)
             return True
-        waiting = math.floor((now - self.start) / self.period) - k
+        arrived = math.floor((now - self.start) / self.period)
+        waiting = (arrived if self.frames is None else min(arrived, self.frames - 1)) - k
         if waiting >= self.queue:
             self.dropped += 1
             return False

@@ -220,7 +220,8 @@ class _Run:
         model = options.model
         self.first = TRACKLET_FRAMES - 1 if model is not None or options.tracklets is not None else 0
         self.truth_data = model.config.data if model is not None else DataConfig()
-        self.pacer = Pacer(options.rate_hz if options.online else None, options.queue)
+        frames = self.bag.count if self.bag is not None else sum(self.dataset.num_frames(c) for c in self.clips)
+        self.pacer = Pacer(options.rate_hz if options.online else None, options.queue, frames)
         self.latency = LatencyLog() if options.online else None
         self.k = 0  # frames delivered so far, clip after clip
         self.detector = _Detector(model, options.device) if model is not None and (options.online or self.bag) else None
