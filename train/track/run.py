@@ -91,6 +91,7 @@ class TrackResult:
     clips: list[str]
     frames: int  # tracked
     tracks: int  # distinct (clip, track id)
+    play_s: float  # game time the tracked frames span, clip by clip
     seconds: float
     metrics: TrackingMetrics | None  # None: no labels
     hota: Hota | None
@@ -224,6 +225,7 @@ class _Run:
         self.pacer = Pacer(options.rate_hz if options.online else None, options.queue, frames)
         self.latency = LatencyLog() if options.online else None
         self.k = 0  # frames delivered so far, clip after clip
+        self.play_s = 0.0  # game time of the frames tracked (their count x their period), clip after clip
         self.detector = _Detector(model, options.device) if model is not None and (options.online or self.bag) else None
 
     def frames(self, clip: str, window: Window) -> Iterator[tuple[Frame, bool, Stopwatch]]:
@@ -274,6 +276,7 @@ class _Run:
         ids = _Truth(self.truth_data, self.options.model is not None)
         truth: list[GroundTruthFrame] | None = []
         tracks: list[TrackedFrame] = []
+        times: list[float] = []
 
         def final(done: list[tuple[object, TrackedFrame]]) -> None:
             nonlocal truth
@@ -285,6 +288,7 @@ class _Run:
                 elif truth is not None:
                     truth.append(ids.frame(labels))
                 tracks.append(tracked)
+                times.append(frame.label_time_s)
 
         outputs.start_clip(clip)
         window = Window(Path(self.root), None if self.dataset is None else self.dataset.frame)
@@ -310,6 +314,7 @@ class _Run:
             progress.update()
         final(held.flush())
         outputs.end_clip()
+        self.play_s += len(times) * float(np.median(np.diff(times))) if len(times) > 1 else 0.0
         return truth, tracks
 
 
@@ -332,7 +337,7 @@ def run_track(options: TrackOptions, write: Callable[[Path, TrackResult], None])
         result = TrackResult(
             run.clips, sum(map(len, tracks)), len({(c, i) for c, clip in zip(run.clips, tracks) for f in clip
                                                    for i in f.ids.tolist()}),
-            time.perf_counter() - start, *(scores or (None, None, None)), run.pacer.late, run.pacer.dropped,
+            run.play_s, time.perf_counter() - start, *(scores or (None, None, None)), run.pacer.late, run.pacer.dropped,
             run.latency,
         )
         if scores is not None:
