@@ -127,7 +127,7 @@ def test_track_from_kitti_detections_of_the_labels(tiny, tmp_path, capsys):
     row = next(csv.DictReader(open(tmp_path / "out" / "metrics.csv")))
     assert float(row["mota"]) > 0.5 and int(row["ids"]) < labelled / 4 and int(row["tracks"]) <= 1.5 * labelled
     assert "MOTA" in out and "per 10 minutes of play IDS" in out
-    assert float(row["play_s"]) == pytest.approx(2 * FRAMES / 11, rel=1e-6)  # both clips' frames, at 11 Hz
+    assert float(row["play_s"]) == pytest.approx(2 * FRAMES / 11, abs=0.01)  # both clips' frames, at 11 Hz
 
 
 @pytest.mark.engine
