@@ -39,6 +39,8 @@ ELSEWHERE = {
     "simgen-train detect": "tests/test_train_cli.py",
     "simgen-train study": "tests/test_study.py (tiny configs and scenario, 2 iterations)",
     "simgen-train table2": "tests/test_study.py (a tiny study's tracklets)",
+    "simgen-train track": "tests/test_track.py (tiny paper_x1, tiny model)",
+    "simgen view datasets/paper_x1 --clip clip_0003 --tracks": "tests/test_track.py (Fig. 6 of a track run)",
 }
 
 

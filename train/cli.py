@@ -1,4 +1,5 @@
-"""`simgen-train fit | eval | detect | study | table2`: the paper's PointPillars tracklet detector on simgen datasets.
+"""`simgen-train fit | eval | detect | track | study | table2`: the paper's PointPillars tracklet detector on simgen
+datasets.
 
 Datasets are read only through simgen.datasets. Bad input (a missing dataset or config, a file
 that is not our checkpoint, an option out of range, a model that would not fit in the device's
@@ -56,8 +57,11 @@ from train.study.run import (
     tracklet_clip_set,
 )
 from train.study.seeds import write_seed_tables
-from train.study.tracklet_filter import read_filters
-from train.tracking.config import load_tracker_configs
+from train.study.tracklet_filter import TrackletFilter, read_filters
+from train.track.latency import DEFAULT_QUEUE
+from train.track.report import metrics_text, write_metrics
+from train.track.run import DEFAULT_FILTER, DEFAULT_TRACKER, Model, TrackOptions, run_track
+from train.tracking.config import load_tracker_config, load_tracker_configs
 
 SPLITS = ("train", "val", "all")
 
@@ -112,13 +116,14 @@ def _split(name: str) -> str | None:
 
 
 def _model(
-    checkpoint_path: str, dataset: simgen.datasets.Dataset, device: torch.device
+    checkpoint_path: str, dataset: simgen.datasets.Dataset | None, device: torch.device
 ) -> tuple[Detector, DetectorConfig, int]:
     """The checkpoint's detector, once its inference (one window at a time, train.detector.streaming) is known
-    to fit the device."""
+    to fit the device (when the dataset tells its points per frame)."""
     checkpoint = load_checkpoint(checkpoint_path)
     config = checkpoint.config
-    check_memory(config, dataset_points_per_frame(dataset), device, training=False, batch=1)
+    if dataset is not None:
+        check_memory(config, dataset_points_per_frame(dataset), device, training=False, batch=1)
     model = Detector(config)
     try:
         model.load_state_dict(checkpoint.model)
@@ -174,6 +179,48 @@ def _detect(args: argparse.Namespace) -> int:
     model, config, _ = _model(args.checkpoint, dataset, device)
     paths = detect(model, config, args.dataset, _split(args.split), device, out, not args.quiet)
     print(f"{out}: tracklets of {len(paths)} clips in tracklets/, KITTI labels in kitti/")
+    return 0
+
+
+def _track(args: argparse.Namespace) -> int:
+    sources = [name for name in ("checkpoint", "tracklets", "detections") if getattr(args, name) is not None]
+    if len(sources) != 1:
+        raise UserError("give exactly one source of detections: --checkpoint, --tracklets or --detections"
+                        + (f" (got {' and '.join('--' + s for s in sources)})" if sources else ""))
+    if (args.dataset is None) == (args.bag is None):
+        raise UserError("give --dataset or --bag, not both" if args.dataset else "give --dataset or --bag")
+    if args.bag is not None and args.checkpoint is None:
+        raise UserError("--bag holds points only: it needs --checkpoint to detect players")
+    if args.rate is not None and not args.online:
+        raise UserError("--rate paces frames as a sensor delivers them: it needs --online")
+    tracker = load_tracker_config(args.tracker)
+    out, device = _output(args.output), _device(args.device)
+    dataset = _dataset(args.dataset) if args.dataset is not None else None
+    model = None
+    if args.checkpoint is not None:
+        detector, config, _ = _model(args.checkpoint, dataset, device)
+        model = Model(detector, config)
+    rule = TrackletFilter(args.min_score, "centre", args.nms_m) if args.min_score or args.nms_m else None
+    options = TrackOptions(
+        out, tracker, args.dataset, None if args.bag is None else Path(args.bag), args.ros2_layout, model,
+        None if args.tracklets is None else Path(args.tracklets),
+        None if args.detections is None else Path(args.detections),
+        _split(args.split), args.online, args.rate, args.queue, rule, device, not args.quiet,
+    )
+    command = shlex.join(["simgen-train", *sys.argv[1:]]) if sys.argv[1:2] == ["track"] else "simgen-train track"
+    result = run_track(options, lambda folder, r: write_metrics(folder, r, tracker.name, command))
+    clips = f"{len(result.clips)} clip{'' if len(result.clips) == 1 else 's'}"
+    print(f"{out}: {result.tracks} tracks over {result.frames} frames of {clips} in "
+          f"{result.seconds:.1f} s; kitti/<clip>.txt, tracks.parquet, mcap/<clip>.mcap")
+    if result.latency is not None:
+        print(result.latency.summary())
+        paced = f" at {args.rate:g} Hz" if args.rate is not None else ""
+        print(f"online{paced}: {result.late} late, {result.dropped} dropped of {result.frames + result.dropped} "
+              f"frames; latency.csv")
+    if result.metrics is not None:
+        print(f"{tracker.name}: {metrics_text(result, tracker.name)} (metrics.md, metrics.csv)")
+    else:
+        print("no labels with track ids: no metrics")
     return 0
 
 
@@ -296,6 +343,22 @@ def _seed_list(text: str) -> tuple[int, ...]:
         raise argparse.ArgumentTypeError(str(error).removeprefix("--seeds: ")) from None
 
 
+def _bounded(what: str, low: float, high: float, unit: str = "", above_low: bool = False):
+    """An argparse type: a number (`what`, in `unit`) from low (or above it, `above_low`) to high."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text[:20]!r} is not {what}") from None
+        if not (low < value if above_low else low <= value) or not value <= high:
+            start = f"more than {low:g}" if above_low else f"{low:g}"
+            raise argparse.ArgumentTypeError(f"{value:g} is out of range: {start} to {high:g}{unit}")
+        return value
+
+    return parse
+
+
 def _seconds(text: str) -> float:
     """An argparse type: a positive, finite number of seconds."""
     try:
@@ -346,6 +409,48 @@ def build_parser() -> argparse.ArgumentParser:
         common(p)
         p.add_argument("--split", choices=SPLITS, default="val", help="clips to run on (default: val)")
         p.set_defaults(func=func)
+
+    p = sub.add_parser("track", help="track players: detections from a checkpoint, tracklet files or KITTI files "
+                       "-> the paper's tracker -> KITTI tracking results, a tracks table, MCAP bags and metrics",
+                       description="Track the players of a dataset's clips (or of a ROS 2 MCAP bag of points) with "
+                       "the paper's 3D DIoU tracker or any tracker YAML. Detections come from exactly one source: "
+                       "--checkpoint (our detector), --tracklets (files of `simgen-train detect`) or --detections "
+                       "(KITTI object files with a 16th column, the score: DIR/<clip>/<frame:06d>.txt, boxes in the "
+                       "dataset's KITTI camera; single-frame boxes are associated frame to frame). OUT gets "
+                       "kitti/<clip>.txt (KITTI tracking results), tracks.parquet (clip, frame, time, track id, box, "
+                       "score, state), mcap/<clip>.mcap (points, labels and tracks as markers with trajectories, "
+                       "for Foxglove or RViz) and, where the clips have labels, metrics.md and metrics.csv (sAMOTA, "
+                       "AMOTA, AMOTP, MOTA, MOTP, IDS, FRAG, HOTA). --online runs frame by frame as a sensor "
+                       "delivers them, with latency.csv. OUT's files are replaced only when the run succeeds.")
+    p.add_argument("--dataset", help="a dataset folder written by `simgen generate` (or give --bag)")
+    p.add_argument("--bag", metavar="FILE", help="instead of a dataset: a ROS 2 MCAP bag of points (needs "
+                   "--checkpoint; its /simgen/boxes, if any, are the labels)")
+    p.add_argument("--ros2-layout", choices=("simgen", "livox"), default="simgen", help="the bag's PointCloud2 "
+                   "points: simgen (pitch frame, default) or livox (livox_ros_driver2's, each sensor's frame, posed "
+                   "by /tf_static)")
+    p.add_argument("-o", "--output", required=True, help="output folder (created)")
+    p.add_argument("--checkpoint", help="checkpoint.pt of `simgen-train fit`: detect, then track")
+    p.add_argument("--tracklets", metavar="DIR", help="tracklet files DIR/<clip>.npz of `simgen-train detect`")
+    p.add_argument("--detections", metavar="DIR", help="KITTI object files with a score, DIR/<clip>/<frame:06d>.txt")
+    p.add_argument("--tracker", default=str(TRACKER_CONFIGS / DEFAULT_TRACKER), metavar="YAML",
+                   help=f"tracker config (default: the paper's full tracker, train/configs/tracking/{DEFAULT_TRACKER})")
+    p.add_argument("--split", choices=SPLITS, default="val", help="clips to track (default: val)")
+    p.add_argument("--min-score", type=_bounded("a score", 0.0, 1.0), default=DEFAULT_FILTER.min_score, metavar="S",
+                   help=f"track only detections scoring at least S (default {DEFAULT_FILTER.min_score:g})")
+    p.add_argument("--nms-m", type=_bounded("a number of metres", 0.0, 10.0, " m"),
+                   default=DEFAULT_FILTER.nms_threshold, metavar="M",
+                   help="drop a detection whose centre is within M metres of a better one (default "
+                   f"{DEFAULT_FILTER.nms_threshold:g}; 0: none)")
+    p.add_argument("--online", action="store_true", help="frame by frame, as a sensor delivers them, nothing looking "
+                   "ahead; each stage's latency per frame in latency.csv")
+    p.add_argument("--rate", type=_bounded("a number of frames per second", 0.0, 1000.0, " Hz", above_low=True),
+                   metavar="HZ", help="with --online: frames arrive at HZ; count late "
+                   "and dropped frames")
+    p.add_argument("--queue", type=_count("--queue", 1, 10_000), default=DEFAULT_QUEUE, metavar="N",
+                   help=f"with --rate: a frame is dropped when N newer ones wait (default {DEFAULT_QUEUE})")
+    p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto", help="default: CUDA when present")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_track)
 
     p = sub.add_parser("study", help="a scenario -> its dataset -> the paper's Table 1 (AP) and Table 2 (tracking) "
                        "in OUT")

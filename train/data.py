@@ -71,6 +71,11 @@ def _discontinuity(frame: simgen.datasets.Frame) -> NDArray[np.bool_]:
     return np.zeros(len(frame.boxes), bool) if frame.discontinuity is None else frame.discontinuity
 
 
+def frame_points(frame: simgen.datasets.Frame) -> NDArray[np.float32]:
+    """(P, 4) x, y, z and intensity / 255 of a frame's points, as the model reads them."""
+    return np.column_stack([frame.points_m, frame.intensity.astype(np.float32) / 255.0]).astype(np.float32)
+
+
 def load_sample(
     dataset: simgen.datasets.Dataset | RecentFrames, clip: str, index: int, config: DetectorConfig
 ) -> Sample:
@@ -98,10 +103,7 @@ def load_sample(
         mask[:, k] = found
     for k in range(1, TRACKLET_FRAMES):
         mask[placed[:, k], :k] = False
-    clouds = frames[-config.model.fusion.input_frames:]
-    points = tuple(
-        np.column_stack([f.points_m, f.intensity.astype(np.float32) / 255.0]).astype(np.float32) for f in clouds
-    )
+    points = tuple(frame_points(f) for f in frames[-config.model.fusion.input_frames:])
     return Sample(clip, index, points, boxes.astype(np.float32), mask, track_id, placed[:, -1])
 
 

@@ -41,6 +41,14 @@ def register(subparsers) -> None:
         help="also (or, without -o, only) write the frames as a Rerun recording: points, boxes with track "
         "ids and headings, sensor frusta, on a game-time timeline; open it with `rerun FILE.rrd`",
     )
+    parser.add_argument(
+        "--tracks",
+        type=Path,
+        metavar="TRACK_OUT",
+        help="the paper's Fig. 6 instead of the frames: the labelled trajectories beside those `simgen-train track` "
+        "wrote to TRACK_OUT (its tracks.parquet) over the pitch, one colour per id, identity switches ringed in red; "
+        "writes OUT/<clip>_tracks.png (the window A:B) and OUT/<clip>_tracks.mp4 (drawn frame by frame, H.264)",
+    )
     parser.add_argument("--clip", help="clip id (default: the first clip)")
     parser.add_argument(
         "--frames", default=":", metavar="A:B", help="frames A to B-1 (Python slice; default all), or one frame A"
@@ -80,6 +88,8 @@ def run(args) -> int:
         check_output(args.rerun, "file", reads=[args.dataset])
     if args.output is not None:
         check_output(args.output, "folder", reads=[args.dataset])
+    if args.tracks is not None and (args.output is None or args.export_frame or args.no_images or args.rerun):
+        raise UserError("--tracks draws trajectories into -o OUT, alone: without --rerun, --export-frame, --no-images")
     if args.no_images and not args.export_frame:
         raise UserError("--no-images leaves nothing to write: add --export-frame I")
     started = time.perf_counter()
@@ -90,6 +100,17 @@ def run(args) -> int:
                                                                             "--export-frame")})
     dataset.frame(clip, frames.start)  # a clip that does not read is one line, before any progress bar
     out = args.output
+    if args.tracks is not None:
+        from simgen.view.trajectories import write_trajectory_view
+
+        out.mkdir(parents=True, exist_ok=True)
+        png, video, switches = write_trajectory_view(dataset, clip, frames, args.tracks / "tracks.parquet", out,
+                                                     args.scale)
+        print(f"{png}: labelled and tracked trajectories of {clip}, frames {frames.start}-{frames.stop - 1}, "
+              f"{switches} ID switch{'' if switches == 1 else 'es'}")
+        print(f"{video}: drawn frame by frame at {dataset.manifest.sensors[0].frame_rate_hz:g} fps (H.264)")
+        print(f"done in {time.perf_counter() - started:.1f} s")
+        return 0
     if args.rerun is not None:
         from simgen.view.rerun_view import write_recording
 

@@ -59,8 +59,8 @@ from simgen.errors import UserError
 from simgen.vocab import OFFICIAL_CLASS
 
 if TYPE_CHECKING:
-    from simgen.labels.labelled_frame import LabelledFrame
     from simgen.datasets.manifest import Manifest
+    from simgen.labels.labelled_frame import LabelledFrame
     from simgen.scan.sensor import Sensor
 
 WORLD_FRAME = "pitch"
@@ -223,11 +223,11 @@ def _stamp(ns: int):
     return _types()["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
 
-def _header(ns: int, frame_id: str = WORLD_FRAME):
+def header_message(ns: int, frame_id: str = WORLD_FRAME):
     return _types()["std_msgs/msg/Header"](stamp=_stamp(ns), frame_id=frame_id)
 
 
-def _vector(x: float = 0.0, y: float = 0.0, z: float = 0.0, kind: str = "geometry_msgs/msg/Vector3"):
+def vector_message(x: float = 0.0, y: float = 0.0, z: float = 0.0, kind: str = "geometry_msgs/msg/Vector3"):
     return _types()[kind](x=x, y=y, z=z)
 
 
@@ -235,23 +235,25 @@ def _quaternion(x: float = 0.0, y: float = 0.0, z: float = 0.0, w: float = 1.0):
     return _types()["geometry_msgs/msg/Quaternion"](x=x, y=y, z=z, w=w)
 
 
-def _pose(x: float = 0.0, y: float = 0.0, z: float = 0.0, yaw_rad: float = 0.0):
-    position = _vector(x, y, z, "geometry_msgs/msg/Point")
+def pose_message(x: float = 0.0, y: float = 0.0, z: float = 0.0, yaw_rad: float = 0.0):
+    position = vector_message(x, y, z, "geometry_msgs/msg/Point")
     orientation = _quaternion(z=float(np.sin(yaw_rad / 2)), w=float(np.cos(yaw_rad / 2)))
     return _types()["geometry_msgs/msg/Pose"](position=position, orientation=orientation)
 
 
-def _marker(header, ns: str, id: int, type: int, action: int, pose=None, scale=None, color=(0.0, 0.0, 0.0, 0.0),
-            text: str = ""):
-    """A `visualization_msgs/Marker`; what is not given is ROS's default (zeros, empty)."""
+def marker_message(header, ns: str, id: int, type: int, action: int, pose=None, scale=None,
+                   color=(0.0, 0.0, 0.0, 0.0), text: str = "", points: Sequence[tuple[float, float, float]] = ()):
+    """A `visualization_msgs/Marker`; what is not given is ROS's default (zeros, empty); `points` (a LINE_STRIP's)
+    in metres."""
     types = _types()
     no_bytes = np.zeros(0, np.uint8)
     return types["visualization_msgs/msg/Marker"](
-        header=header, ns=ns, id=id, type=type, action=action, pose=pose or _pose(), scale=scale or _vector(),
+        header=header, ns=ns, id=id, type=type, action=action, pose=pose or pose_message(), scale=scale or vector_message(),
         color=types["std_msgs/msg/ColorRGBA"](*color),
         lifetime=types["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
-        frame_locked=False, points=[], colors=[], texture_resource="",
-        texture=types["sensor_msgs/msg/CompressedImage"](header=_header(0, ""), format="", data=no_bytes),
+        frame_locked=False, points=[vector_message(*p, kind="geometry_msgs/msg/Point") for p in points], colors=[],
+        texture_resource="",
+        texture=types["sensor_msgs/msg/CompressedImage"](header=header_message(0, ""), format="", data=no_bytes),
         uv_coordinates=[], text=text, mesh_resource="",
         mesh_file=types["visualization_msgs/msg/MeshFile"](filename="", data=no_bytes),
         mesh_use_embedded_materials=False,
@@ -302,7 +304,7 @@ def custom_message(package: str, points: NDArray, shot_ns: NDArray[np.int64], ti
     point = types[f"{package}/msg/CustomPoint"]
     columns = (shot_ns - timebase, *(points[name] for name in ("x", "y", "z", "intensity", "tag", "line")))
     return types[livox_msgs.custom_msg_type(package)](
-        header=_header(timebase, frame_id), timebase=timebase, point_num=len(points), lidar_id=lidar_id,
+        header=header_message(timebase, frame_id), timebase=timebase, point_num=len(points), lidar_id=lidar_id,
         rsvd=np.zeros(3, np.uint8),
         points=[point(offset_time=o, x=x, y=y, z=z, reflectivity=int(r), tag=t, line=line)
                 for o, x, y, z, r, t, line in zip(*(c.tolist() for c in columns))],
@@ -313,7 +315,7 @@ def cloud_message(points: NDArray, stamp_ns: int, layout: PointLayout = SIMGEN_L
     """A `sensor_msgs/PointCloud2` of `points` (a structured array of `layout`)."""
     types = _types()
     return types["sensor_msgs/msg/PointCloud2"](
-        header=_header(stamp_ns, frame_id), height=1, width=len(points),
+        header=header_message(stamp_ns, frame_id), height=1, width=len(points),
         fields=[types["sensor_msgs/msg/PointField"](name=name, offset=offset, datatype=kind, count=1)
                 for name, offset, kind, _ in layout.point_fields],
         is_bigendian=False, point_step=layout.step, row_step=layout.step * len(points),
@@ -323,23 +325,28 @@ def cloud_message(points: NDArray, stamp_ns: int, layout: PointLayout = SIMGEN_L
 
 def markers_message(frame: Frame, stamp_ns: int):
     """DELETEALL, then a CUBE and a track-id TEXT per box, and a `placed` TEXT per box with a discontinuity."""
-    header = _header(stamp_ns)
-    markers = [_marker(header, "boxes", 0, 0, 3)]
+    header = header_message(stamp_ns)
+    markers = [marker_message(header, "boxes", 0, 0, 3)]
     names = frame.class_name
     ids = frame.track_id if frame.track_id is not None else np.arange(len(frame.boxes))
     placed = frame.discontinuity if frame.discontinuity is not None else np.zeros(len(frame.boxes), bool)
     for box, name, track, jumped in zip(np.asarray(frame.boxes, np.float64), names, ids, placed):
         x, y, z, length, width, height, yaw = box.tolist()
         r, g, b, a = BOX_COLOURS.get(str(name), PLAYER_COLOUR)
-        markers.append(_marker(header, "boxes", int(track), 1, 0, _pose(x, y, z, yaw), _vector(length, width, height),
+        markers.append(marker_message(header, "boxes", int(track), 1, 0, pose_message(x, y, z, yaw), vector_message(length, width, height),
                                (r, g, b, a), str(name)))
-        markers.append(_marker(header, "track_ids", int(track), 9, 0, _pose(x, y, z + height / 2 + TEXT_HEIGHT_M),
-                               _vector(z=TEXT_HEIGHT_M), (r, g, b, 1.0), str(int(track))))
+        markers.append(marker_message(header, "track_ids", int(track), 9, 0, pose_message(x, y, z + height / 2 + TEXT_HEIGHT_M),
+                               vector_message(z=TEXT_HEIGHT_M), (r, g, b, 1.0), str(int(track))))
         if jumped:
-            markers.append(_marker(header, DISCONTINUITY_NAMESPACE, int(track), 9, 0,
-                                   _pose(x, y, z + height / 2 + 2.5 * TEXT_HEIGHT_M), _vector(z=TEXT_HEIGHT_M),
+            markers.append(marker_message(header, DISCONTINUITY_NAMESPACE, int(track), 9, 0,
+                                   pose_message(x, y, z + height / 2 + 2.5 * TEXT_HEIGHT_M), vector_message(z=TEXT_HEIGHT_M),
                                    (1.0, 0.3, 0.3, 1.0), "placed"))
-    return _types()["visualization_msgs/msg/MarkerArray"](markers=markers)
+    return marker_array_message(markers)
+
+
+def marker_array_message(markers: Sequence):
+    """A `visualization_msgs/MarkerArray` of `marker_message`s."""
+    return _types()["visualization_msgs/msg/MarkerArray"](markers=list(markers))
 
 
 def tf_static_message(frames: Sequence[tuple[str, Sensor]], stamp_ns: int):
@@ -350,9 +357,9 @@ def tf_static_message(frames: Sequence[tuple[str, Sensor]], stamp_ns: int):
         qx, qy, qz, qw = sensor_quaternion(sensor).tolist()
         x, y, z = (float(v) for v in sensor.pose[:3])
         rotation = _quaternion(qx, qy, qz, qw)
-        transform = types["geometry_msgs/msg/Transform"](translation=_vector(x, y, z), rotation=rotation)
+        transform = types["geometry_msgs/msg/Transform"](translation=vector_message(x, y, z), rotation=rotation)
         transforms.append(types["geometry_msgs/msg/TransformStamped"](
-            header=_header(stamp_ns), child_frame_id=name, transform=transform))
+            header=header_message(stamp_ns), child_frame_id=name, transform=transform))
     return types["tf2_msgs/msg/TFMessage"](transforms=transforms)
 
 
@@ -389,7 +396,9 @@ class BagWriter:
         self.connections = {}
         self.messages = 0
 
-    def _write(self, topic: str, msgtype: str, message, stamp_ns: int) -> None:
+    def write(self, topic: str, msgtype: str, message, stamp_ns: int) -> None:
+        """One message of `msgtype` (a typed message of this writer's `store`) on `topic`, its connection made on
+        first use."""
         if topic not in self.connections:
             self.connections[topic] = self.bag.add_connection(
                 topic, msgtype, typestore=self.store, offered_qos_profiles=[offered_qos(topic)])
@@ -401,7 +410,7 @@ class BagWriter:
             frames = {self.naming.frame_of(self.layout, u): u.sensor for u in self.units}
         else:
             frames = {s.name: s for s in self.sensors}
-        self._write(TF_STATIC_TOPIC, SCHEMAS[2], tf_static_message(list(frames.items()), stamp_ns), stamp_ns)
+        self.write(TF_STATIC_TOPIC, SCHEMAS[2], tf_static_message(list(frames.items()), stamp_ns), stamp_ns)
 
     def add(self, frame: Frame) -> None:
         stamp_ns = nanoseconds(frame.time_s)
@@ -415,12 +424,12 @@ class BagWriter:
             for unit in self.units:
                 points = cloud_points(frame, sensor == unit.sensor.sensor_id, stamp_ns, layout, unit.sensor)
                 message = cloud_message(points, stamp_ns, layout, self.naming.frame_of(layout, unit))
-                self._write(self.naming.topic_of(layout, unit), SCHEMAS[0], message, stamp_ns)
+                self.write(self.naming.topic_of(layout, unit), SCHEMAS[0], message, stamp_ns)
         else:
             points = cloud_points(frame, slice(None), stamp_ns, layout)
-            self._write(ALL_POINTS_TOPIC, SCHEMAS[0], cloud_message(points, stamp_ns, layout), stamp_ns)
+            self.write(ALL_POINTS_TOPIC, SCHEMAS[0], cloud_message(points, stamp_ns, layout), stamp_ns)
         label_ns = nanoseconds(frame.label_time_s)
-        self._write(BOXES_TOPIC, SCHEMAS[1], markers_message(frame, label_ns), label_ns)
+        self.write(BOXES_TOPIC, SCHEMAS[1], markers_message(frame, label_ns), label_ns)
 
     def _add_units(self, frame: Frame, stamp_ns: int) -> None:
         """A message per lidar unit, stamped at its first point (the sweep start if it has none)."""
@@ -439,7 +448,7 @@ class BagWriter:
                 for name in layout.dtype.names:
                     packed[name] = points[name]
                 message = cloud_message(packed, timebase, layout, frame_id)
-            self._write(self.naming.topic_of(layout, unit), layout.msgtype, message, timebase)
+            self.write(self.naming.topic_of(layout, unit), layout.msgtype, message, timebase)
 
     def finish(self) -> None:
         """Close the MCAP and write `metadata.yaml`."""

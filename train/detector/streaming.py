@@ -12,7 +12,7 @@ one canvas, so each window is its own key.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -49,22 +49,56 @@ def _canvases(encoded: Encoded, wanted: list[int], grid_cells: int) -> Batch:
     return collate(items, 1, grid_cells)
 
 
-def fused_features(folded: Detector, config: DetectorConfig, samples: Sequence[Encoded], device: torch.device
+class WindowFeatures:
+    """The head's input of one window after another (in clip order), each canvas's backbone levels and fusion
+    terms computed once, one canvas at a time, and kept while a window holds it: `pillars` (the new canvases'
+    pillar batches, CPU) then `fuse` (the network up to the head), two calls so that a caller can time them
+    apart. `keep` computes a frame's canvas before any window holds it (a sensor's first frames)."""
+
+    def __init__(self, folded: Detector, config: DetectorConfig, device: torch.device) -> None:
+        self.folded, self.config, self.device = folded, config, device
+        self.kept: dict[tuple[str, int, int], list[torch.Tensor]] = {}
+
+    def pillars(self, encoded: Encoded) -> tuple[list[tuple[str, int, int]], list[tuple[int, Batch]]]:
+        """The window's canvas keys, and each new canvas's position in them with its pillar batch."""
+        rows, cols = self.config.data.grid_size
+        keys = canvas_keys(encoded.sample, self.config)
+        return keys, [(k, _canvases(encoded, [k], rows * cols)) for k, key in enumerate(keys) if key not in self.kept]
+
+    def _terms(self, batch: Batch) -> list[torch.Tensor]:
+        levels = self.folded.canvas_levels(batch.to(self.device), 1)
+        return [term[0] for term in self.folded.fusion.frame_terms(levels)]
+
+    def fuse(self, keys: list[tuple[str, int, int]], batches: list[tuple[int, Batch]]) -> torch.Tensor:
+        """The head's input (1, C, H, W) of the window `pillars` prepared."""
+        self.kept.update({keys[k]: self._terms(batch) for k, batch in batches})
+        self.kept = {key: self.kept[key] for key in keys}
+        return self.folded.fusion.fuse_frame_terms([self.kept[key] for key in keys])
+
+    def keep(self, encoded: Encoded) -> None:
+        """Compute and keep the canvas of a lone frame (`encoded`: a sample of that frame alone, canvas 0) that
+        later windows will hold, where a canvas is one frame (late fusion, single frame)."""
+        rows, cols = self.config.data.grid_size
+        fusion = self.config.model.fusion
+        if fusion.canvases == fusion.input_frames > 1:
+            key = (encoded.sample.clip, encoded.sample.index, 0)
+            self.kept[key] = self._terms(_canvases(encoded, [0], rows * cols))
+
+
+def fused_features(folded: Detector, config: DetectorConfig, samples: Iterable[Encoded], device: torch.device
                    ) -> Iterator[tuple[Sample, torch.Tensor]]:
-    """Each encoded sample (a SampleSet without augmentation, in order) with the head's input (1, C, H, W),
-    each canvas's backbone and fusion terms computed once and kept while a window holds it."""
-    rows, cols = config.data.grid_size
-    kept: dict[tuple[str, int, int], list[torch.Tensor]] = {}
-    for item in range(len(samples)):
-        encoded = samples[item]
-        keys = canvas_keys(encoded.sample, config)
-        missing = [k for k, key in enumerate(keys) if key not in kept]
-        if missing:
-            levels = folded.canvas_levels(_canvases(encoded, missing, rows * cols).to(device), len(missing))
-            terms = folded.fusion.frame_terms(levels)
-            kept.update({keys[k]: [term[j] for term in terms] for j, k in enumerate(missing)})
-        kept = {key: kept[key] for key in keys}
-        yield encoded.sample, folded.fusion.fuse_frame_terms([kept[key] for key in keys])
+    """Each encoded sample (a SampleSet without augmentation, in order) with the head's input (1, C, H, W)."""
+    windows = WindowFeatures(folded, config, device)
+    for encoded in samples:
+        yield encoded.sample, windows.fuse(*windows.pillars(encoded))
+
+
+def head(folded: Detector, config: DetectorConfig, features: torch.Tensor
+         ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    """The head on one window's input (1, C, H, W), its box convolutions only at the anchors above the score
+    threshold: (those anchors (K,), every anchor's score (N_a,), their deltas and direction logits)."""
+    keep, scores = candidates(folded.head.anchor_scores(features)[0], config)
+    return keep, scores, *folded.head.anchor_boxes(features[0], keep)
 
 
 def stream(model: Detector, config: DetectorConfig, samples: Sequence[Encoded], device: torch.device
@@ -74,6 +108,4 @@ def stream(model: Detector, config: DetectorConfig, samples: Sequence[Encoded], 
     folded = fold_batchnorm(model).to(device)
     with torch.inference_mode():
         for sample, features in fused_features(folded, config, samples, device):
-            keep, scores = candidates(folded.head.anchor_scores(features)[0], config)
-            deltas, direction = folded.head.anchor_boxes(features[0], keep)
-            yield sample, tracklets(keep, scores, deltas, direction, folded.head.anchors, config)
+            yield sample, tracklets(*head(folded, config, features), folded.head.anchors, config)

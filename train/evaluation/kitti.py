@@ -19,11 +19,13 @@ from train.tracking.types import GroundTruthFrame, TrackedFrame
 
 
 def kitti_lines(
-    frames: Sequence[TrackedFrame] | Sequence[GroundTruthFrame], object_type: str = "Pedestrian"
+    frames: Sequence[TrackedFrame] | Sequence[GroundTruthFrame],
+    object_type: str = "Pedestrian",
+    numbers: Sequence[int] | None = None,
 ) -> list[str]:
-    """The label lines of a clip (frames numbered from 0); tracker frames add the score column."""
+    """The label lines of a clip (frames numbered from 0, or by `numbers`); tracker frames add the score column."""
     lines = []
-    for index, frame in enumerate(frames):
+    for index, frame in zip(range(len(frames)) if numbers is None else numbers, frames):
         scores = getattr(frame, "scores", None)
         for i, (track_id, fields) in enumerate(zip(frame.ids.tolist(), box_fields(frame.boxes))):
             line = f"{index} {track_id} {object_type} 0 0 {fields}"

@@ -142,15 +142,15 @@ def table1_markdown(result: StudyResult, command: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _table2_head() -> list[str]:
+def table2_head() -> list[str]:
     return ["| Method | " + " | ".join(TABLE2_COLUMNS) + " |", "| --- |" + " ---: |" * len(TABLE2_COLUMNS)]
 
 
-def _table2_row(name: str, values: tuple) -> str:
+def table2_row(name: str, values: tuple) -> str:
     return f"| {name} | " + " | ".join(f"{v:.2f}" if isinstance(v, float) else str(v) for v in values) + " |"
 
 
-def _tracker_values(r: TrackerResult) -> tuple:
+def tracker_values(r: TrackerResult) -> tuple:
     m, b = r.metrics, r.metrics.best
     percent = tuple(100 * v for v in (m.samota, m.amota, m.amotp, b.mota, b.motp))
     return (*percent, b.ids, b.frag, 100 * r.hota.hota, 100 * r.centre_hota.hota)
@@ -203,10 +203,10 @@ def tracking_sections(trackers: list[TrackerResult], filters: dict[str, FilterCh
         for iou in sorted({r.min_iou for r in trackers}):
             rows = [r for r in trackers if r.min_iou == iou and r.filtered == filtered]
             if rows:
-                lines += ["", f"## 3D IoU >= {iou:g}, {title}", "", *_table2_head()]
-                lines += [_table2_row(r.tracker, _tracker_values(r)) for r in rows]
-    lines += ["", "## The paper's Table 2 (its simulated dataset, IoU 0.25)", "", *_table2_head()]
-    lines += [_table2_row(name, (*values, "–", "–")) for name, values in PAPER_TABLE2.items()]
+                lines += ["", f"## 3D IoU >= {iou:g}, {title}", "", *table2_head()]
+                lines += [table2_row(r.tracker, tracker_values(r)) for r in rows]
+    lines += ["", "## The paper's Table 2 (its simulated dataset, IoU 0.25)", "", *table2_head()]
+    lines += [table2_row(name, (*values, "–", "–")) for name, values in PAPER_TABLE2.items()]
     if not first.scores:  # filters given, not chosen here
         return lines
     lines += ["", f"## Choosing the tracklet filters: each tracker's sAMOTA (IoU 0.25) on the {first.train_frames} "

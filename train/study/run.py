@@ -48,6 +48,7 @@ from train.evaluation.detection import FrameBoxes
 from train.evaluation.hota import Hota, centre_hota, hota
 from train.evaluation.tracker_modules import ClosePairs, ModuleCounts, close_pairs, count_modules
 from train.evaluation.tracking import TrackingMetrics, evaluate_tracking
+from train.evaluation.truth import TruthIds
 from train.fit import CHECKPOINT_NAME, fit
 from train.study.tracklet_filter import FilterScore, TrackletFilter, apply_filter, choose_filters
 from train.tracking.clip import make_tracker, track_clip
@@ -269,19 +270,9 @@ def clip_set(results: list[tuple[Sample, Detections]]) -> ClipSet:
 
 
 def truth_frames(samples: list[Sample]) -> list[GroundTruthFrame]:
-    """A clip's ground truth for tracking, frame t of each sample in order. Where the engine placed a
-    humanoid for a restart (its box's discontinuity flag), the ground truth starts a new identity: no
-    tracker can follow a jump of metres, and none is charged an identity switch or credited a match
-    across it (README "Restarts")."""
-    identity: dict[tuple[int, int], int] = {}
-    segment: dict[int, int] = {}
-    frames = []
-    for sample in samples:
-        for track, placed in zip(sample.track_id.tolist(), sample.placed.tolist()):
-            segment[track] = segment.get(track, 0) + int(placed)
-        ids = [identity.setdefault((track, segment[track]), len(identity)) for track in sample.track_id.tolist()]
-        frames.append(GroundTruthFrame(sample.boxes[:, -1], np.array(ids, np.int64)))
-    return frames
+    """A clip's ground truth for tracking, frame t of each sample in order (train.evaluation.truth)."""
+    ids = TruthIds()
+    return [ids.frame(sample.boxes[:, -1], sample.track_id, sample.placed) for sample in samples]
 
 
 def tracklet_clip_set(paths: list[Path], dataset: Path, config: DetectorConfig) -> ClipSet:

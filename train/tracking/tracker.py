@@ -37,7 +37,7 @@ from train.tracking.config import TrackerConfig
 from train.tracking.motion_model import MOTION_MODELS
 from train.tracking.split import SplitConfig
 from train.tracking.track_table import TrackTable, append, end_frame, new_tracks
-from train.tracking.types import TrackedFrame, Tracklets
+from train.tracking.types import CONFIRMED, DYING, TENTATIVE, TrackedFrame, Tracklets
 
 _OVERLAP = slice(0, 2)  # a tracklet's boxes at t-2 and t-1
 _KEPT_BOXES = {"tracklet_diou": 2, "iou_3d": 1}  # a track's last boxes (t-1 and t; t), as the association needs
@@ -113,7 +113,9 @@ class Tracker:
         if not life.output_dying:
             shown &= tracks.misses == 0
         out = motion_model.state_boxes(tracks.kalman) if self.config.output == "kalman" else tracks.boxes[:, -1]
-        return TrackedFrame(out[shown], tracks.ids[shown], tracks.scores[shown], backfill)
+        state = np.where(life_cycle.confirmed(tracks.hits, life), np.where(tracks.misses > 0, DYING, CONFIRMED),
+                         TENTATIVE)
+        return TrackedFrame(out[shown], tracks.ids[shown], tracks.scores[shown], backfill, state[shown])
 
     def _backfill(
         self, tracklets: Tracklets, source: NDArray[np.intp], tentative: NDArray[np.bool_], scores: NDArray[np.float64]
@@ -127,7 +129,8 @@ class Tracker:
             return ()
         boxes = tracklets.boxes[source[newly], _OVERLAP.stop - frames : _OVERLAP.stop]  # (F, n, 7)
         mean = (tracks.score_sum[newly] + scores[newly]) / (tracks.hits[newly] + 1)
-        return tuple(TrackedFrame(boxes[:, k], tracks.ids[newly], mean) for k in range(frames))
+        confirmed = np.full(len(newly), CONFIRMED)
+        return tuple(TrackedFrame(boxes[:, k], tracks.ids[newly], mean, (), confirmed) for k in range(frames))
 
     def _split(
         self, tracklets: Tracklets, predicted: motion_model.KalmanState, source: NDArray[np.intp]

@@ -15,6 +15,8 @@ from numpy.typing import ArrayLike, NDArray
 from train.geometry import BOX_DIM
 
 TRACKLET_LEN = 3  # boxes at t-2, t-1 and t
+STATES = ("tentative", "confirmed", "dying")  # a shown track's state, TrackedFrame.states indexes this
+TENTATIVE, CONFIRMED, DYING = range(len(STATES))
 
 
 def _array(value: ArrayLike, dtype: type, shape: tuple[int | None, ...], name: str) -> NDArray[Any]:
@@ -48,19 +50,24 @@ class TrackedFrame:
 
     ``backfill``: boxes for frames before this one (oldest first, the last one just before it) of
     tracks confirmed in this frame, at the frames they were not yet output (train.tracking.clip
-    merges them into those frames).
+    merges them into those frames). ``states``: each box's track's state (index into STATES), where
+    the tracker says; None where it does not.
     """
 
     boxes: NDArray[np.float64]  # (M, 7)
     ids: NDArray[np.int64]  # (M,), unique in the frame
     scores: NDArray[np.float64]  # (M,)
     backfill: tuple[TrackedFrame, ...] = ()
+    states: NDArray[np.int8] | None = None  # (M,)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "boxes", _array(self.boxes, np.float64, (None, BOX_DIM), "boxes"))
         object.__setattr__(self, "ids", _array(self.ids, np.int64, (None,), "ids"))
         object.__setattr__(self, "scores", _array(self.scores, np.float64, (None,), "scores"))
         _same_length(self.boxes, self.ids, self.scores)
+        if self.states is not None:
+            object.__setattr__(self, "states", _array(self.states, np.int8, (None,), "states"))
+            _same_length(self.boxes, self.states)
 
 
 @dataclass(frozen=True)
