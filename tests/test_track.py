@@ -50,7 +50,7 @@ def tiny(tmp_path_factory):
     done = _run("train.cli", "fit", root / "late.yaml", "--dataset", dataset, "-o", root / "run", "--iterations", 2,
                 "--quiet")
     assert done.returncode == 0, done.stderr
-    bag = root / f"{VAL}.mcap"
+    bag = root / VAL  # a rosbag2 directory
     done = _run("simgen.cli", "export", dataset, "--clip", VAL, "-o", bag)
     assert done.returncode == 0, done.stderr
     return dataset, root / "run" / "checkpoint.pt", bag
@@ -78,7 +78,7 @@ def check_outputs(out, clip: str) -> None:
     assert sorted(zip(table.column("frame").to_pylist(), table.column("track_id").to_pylist())) == sorted(
         (int(f[0]), int(f[1])) for f in lines)
     kinds = set()
-    with open(out / "mcap" / f"{clip}.mcap", "rb") as stream:
+    with open(out / "mcap" / clip / f"{clip}.mcap", "rb") as stream:
         for _, _, _, message in make_reader(stream, decoder_factories=[DecoderFactory()]).iter_decoded_messages(
                 topics=[TRACKS_TOPIC]):
             kinds |= {(m.ns, m.type) for m in message.markers if m.action == 0}
@@ -136,7 +136,7 @@ def test_online_from_a_bag_at_11_hz(tiny, tmp_path, capsys):
     code, out, err = track(capsys, "--bag", bag, "--checkpoint", checkpoint, "-o", tmp_path, "--online", "--rate", 11,
                            "--min-score", 0)
     assert code == 0, err
-    check_outputs(tmp_path, bag.stem)
+    check_outputs(tmp_path, bag.name)
     rows = list(csv.DictReader(open(tmp_path / "latency.csv")))
     assert rows and set(rows[0]) == {"clip", "frame", "read_ms", "pillars_ms", "network_ms", "decode_ms", "track_ms",
                                      "total_ms"}

@@ -423,7 +423,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "AMOTA, AMOTP, MOTA, MOTP, IDS, FRAG, HOTA). --online runs frame by frame as a sensor "
                        "delivers them, with latency.csv. OUT's files are replaced only when the run succeeds.")
     p.add_argument("--dataset", help="a dataset folder written by `simgen generate` (or give --bag)")
-    p.add_argument("--bag", metavar="FILE", help="instead of a dataset: a ROS 2 MCAP bag of points (needs "
+    p.add_argument("--bag", metavar="BAG", help="instead of a dataset: a ROS 2 bag of points, its folder or its MCAP "
+                   "(needs "
                    "--checkpoint; its /simgen/boxes, if any, are the labels)")
     p.add_argument("--ros2-layout", choices=("simgen", "livox"), default="simgen", help="the bag's PointCloud2 "
                    "points: simgen (pitch frame, default) or livox (livox_ros_driver2's, each sensor's frame, posed "

@@ -84,13 +84,14 @@ class BagFrames:
         from mcap.exceptions import McapError
         from mcap.reader import make_reader
 
-        from simgen.datasets.ros2_bag import LAYOUTS
+        from simgen.datasets.ros2_bag import LAYOUTS, bag_name
 
-        self.path, self.layout = path, LAYOUTS[layout_name]
-        self.clip = path.stem
+        self.clip = bag_name(path) if path.is_dir() else path.stem
+        self.path = path / f"{self.clip}.mcap" if path.is_dir() else path  # a rosbag2 directory, or its MCAP
+        self.layout = LAYOUTS[layout_name]
         self.labels: dict[int, Labels] = {}
         try:
-            with open(path, "rb") as stream:
+            with open(self.path, "rb") as stream:
                 summary = make_reader(stream).get_summary()
         except (OSError, McapError, ValueError) as error:
             raise UserError(f"--bag {path}: not a readable MCAP file ({error.__class__.__name__})") from None
