@@ -30,8 +30,8 @@ from simgen.datasets.formats import dataset_format
 from simgen.datasets.limits import check_declared_sizes, max_points_per_frame
 from simgen.datasets.manifest import MANIFEST_NAME, Manifest, manifest_bytes, read_manifest
 from simgen.datasets.parquet import POINTS_FRAMES_PER_GROUP, table_writer
-from simgen.datasets.schema import TABLES
 from simgen.datasets.records import FileRecord, record_file, sha256_file, write_bytes
+from simgen.datasets.schema import TABLES
 from simgen.datasets.write import CARD_NAME, write_card
 from simgen.errors import UserError
 
@@ -171,7 +171,7 @@ def _millimetres(source: Path, target: Path, rows: int, most_points: int) -> Non
     with _points_table(source, rows, most_points) as groups:
         schema = pa.schema([pa.field(f.name, pa.int32()) if f.name in COORDINATES else f for f in TABLES["points"]])
         floats = [f.name for f in schema if pa.types.is_floating(f.type)]
-        encodings = {c: "DELTA_BINARY_PACKED" for c in COORDINATES} | {c: "BYTE_STREAM_SPLIT" for c in floats}
+        encodings = dict.fromkeys(COORDINATES, "DELTA_BINARY_PACKED") | dict.fromkeys(floats, "BYTE_STREAM_SPLIT")
         with atomic_path(target) as tmp, pq.ParquetWriter(
             tmp, schema, compression="zstd", compression_level=19, use_dictionary=False, column_encoding=encodings,
             write_page_checksum=True,

@@ -17,7 +17,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import AfterValidator, Field, ValidationError, model_validator
 
 from simgen.datasets.formats import FORMATS
 from simgen.datasets.limits import check_points, max_points_per_frame
@@ -156,7 +156,7 @@ class ManifestFile(Strict):
     labels: dict[Annotated[str, Field(max_length=64)], Annotated[float, Field(ge=0, le=1e15)] | None] = Field(max_length=64)  # label statistics
 
     @model_validator(mode="after")
-    def _consistent(self) -> "ManifestFile":
+    def _consistent(self) -> ManifestFile:
         for name, values in (
             ("files: path", [f.path for f in self.files]),
             ("clips: clip", [c.clip for c in self.clips]),
