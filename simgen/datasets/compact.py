@@ -118,7 +118,9 @@ def _source(root: Path, relative: str, listed_in: str, missing: str | None = Non
         try:
             mode = path.lstat().st_mode
         except FileNotFoundError:
-            raise UserError(f"{root}: no {relative}, {missing}" if missing else f"{path}: missing ({listed_in} lists it)") from None
+            raise UserError(
+                f"{root}: no {relative}, {missing}" if missing else f"{path}: missing ({listed_in} lists it)"
+            ) from None
         if stat.S_ISLNK(mode):
             raise UserError(f"{path}: a link; pack and unpack copy no links (to {os.readlink(path)})")
     if not stat.S_ISREG(mode):
@@ -186,7 +188,11 @@ def _millimetres(source: Path, target: Path, rows: int, most_points: int) -> Non
 def _metres(source: Path, target: Path, rows: int, most_points: int) -> None:
     """The reader's points table back from `_millimetres`'s: x, y, z in float32 metres."""
     written = 0
-    with _points_table(source, rows, most_points) as groups, atomic_path(target) as tmp, table_writer(tmp, "points") as writer:
+    with (
+        _points_table(source, rows, most_points) as groups,
+        atomic_path(target) as tmp,
+        table_writer(tmp, "points") as writer,
+    ):
         for table in groups:
             for c in COORDINATES:
                 metres = (table[c].to_numpy() / np.float64(MM_PER_M)).astype(np.float32)

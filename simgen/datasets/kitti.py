@@ -49,11 +49,17 @@ def velodyne_path(tracking: bool, clip_index: int, index: int) -> str:
 
 
 def label_path(tracking: bool, clip_index: int, index: int = 0) -> str:
-    return f"training/label_02/{clip_index:04d}.txt" if tracking else f"training/label_2/{sample_name(clip_index, index)}.txt"
+    return (
+        f"training/label_02/{clip_index:04d}.txt"
+        if tracking
+        else f"training/label_2/{sample_name(clip_index, index)}.txt"
+    )
 
 
 def calib_path(tracking: bool, clip_index: int, index: int = 0) -> str:
-    return f"training/calib/{clip_index:04d}.txt" if tracking else f"training/calib/{sample_name(clip_index, index)}.txt"
+    return (
+        f"training/calib/{clip_index:04d}.txt" if tracking else f"training/calib/{sample_name(clip_index, index)}.txt"
+    )
 
 
 def placements_path(clip_index: int) -> str:
@@ -78,7 +84,11 @@ def placeholder_png() -> bytes:
 
 def write_placeholder_images(root: Path, clips: Sequence[tuple[int, int]]) -> list[FileRecord]:
     """training/image_2/NNNNNN.png for every (clip index, frames) of `clips`; rows = 1 (one image each)."""
-    return [write_bytes(root, image_path(clip_index, i), placeholder_png(), 1) for clip_index, frames in clips for i in range(frames)]
+    return [
+        write_bytes(root, image_path(clip_index, i), placeholder_png(), 1)
+        for clip_index, frames in clips
+        for i in range(frames)
+    ]
 
 
 def box_fields(boxes: NDArray) -> list[str]:
@@ -94,7 +104,8 @@ def box_fields(boxes: NDArray) -> list[str]:
 
 
 def label_lines(frame: LabelledFrame) -> list[str]:
-    """Object label lines, `type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry` (tracking puts frame and track id first)."""
+    """Object label lines, `type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry` (tracking puts frame and
+    track id first)."""
     labels = frame.labels
     occluded = np.where(labels.num_points > 0, 0, UNKNOWN_OCCLUSION)
     return [
@@ -117,19 +128,31 @@ class KittiClipStream:
         if tracking:
             path = self.root / label_path(True, clip_index)
             path.parent.mkdir(parents=True, exist_ok=True)
-            self._labels = self._files.enter_context(self._files.enter_context(atomic_path(path)).open("w", encoding="utf-8", newline="\n"))
+            self._labels = self._files.enter_context(
+                self._files.enter_context(atomic_path(path)).open("w", encoding="utf-8", newline="\n")
+            )
 
     def add(self, frame: LabelledFrame) -> None:
         xyzi = to_xyzi(frame.scan.points_m, frame.scan.intensity)
-        self.records.append(write_bytes(self.root, velodyne_path(self.tracking, self.clip_index, frame.index), xyzi.tobytes(), len(xyzi)))
+        self.records.append(
+            write_bytes(
+                self.root, velodyne_path(self.tracking, self.clip_index, frame.index), xyzi.tobytes(), len(xyzi)
+            )
+        )
         if self.tracking:
             lines = [f"{frame.index} {track} {line}" for track, line in zip(frame.labels.track_id, label_lines(frame))]
             self._labels.write("".join(f"{line}\n" for line in lines))
             self._lines += len(lines)
-            self._placements += [f"{frame.index} {track}" for track in frame.labels.track_id[frame.labels.discontinuity]]
+            self._placements += [
+                f"{frame.index} {track}" for track in frame.labels.track_id[frame.labels.discontinuity]
+            ]
         else:
-            self.records.append(write_text(self.root, label_path(False, self.clip_index, frame.index), label_lines(frame)))
-            self.records.append(write_text(self.root, calib_path(False, self.clip_index, frame.index), calib_lines(False)))
+            self.records.append(
+                write_text(self.root, label_path(False, self.clip_index, frame.index), label_lines(frame))
+            )
+            self.records.append(
+                write_text(self.root, calib_path(False, self.clip_index, frame.index), calib_lines(False))
+            )
 
     def close(self) -> list[FileRecord]:
         self._files.close()
@@ -183,26 +206,36 @@ class KittiReader:
         if self.files.read(calib).decode(errors="replace").splitlines() != calib_lines(self.tracking):
             raise UserError(f"{self.files.root / calib}: not simgen's virtual camera (see the dataset README)")
         relative = label_path(self.tracking, clip_index, index)
-        labels = parse_labels(self.files.read(relative).decode(errors="replace"), self.files.root / relative, self.tracking)
+        labels = parse_labels(
+            self.files.read(relative).decode(errors="replace"), self.files.root / relative, self.tracking
+        )
         if self.tracking:
-            labels["discontinuity"] = np.isin(labels["frame"] * TRACK_ID_SPAN + labels["track_id"], self._placements(clip_index))
+            labels["discontinuity"] = np.isin(
+                labels["frame"] * TRACK_ID_SPAN + labels["track_id"], self._placements(clip_index)
+            )
         return labels
 
     def _placements(self, clip_index: int) -> NDArray[np.int64]:
         """`frame * TRACK_ID_SPAN + track id` of each box that training/placements/SSSS.txt lists."""
         relative = placements_path(clip_index)
         try:
-            pairs = np.array([line.split() for line in self.files.read(relative).decode().splitlines() if line.strip()], np.int64)
+            pairs = np.array(
+                [line.split() for line in self.files.read(relative).decode().splitlines() if line.strip()], np.int64
+            )
         except ValueError:
             raise UserError(f"{self.files.root / relative}: not lines of `frame track_id`") from None
-        if pairs.size and (pairs.ndim != 2 or pairs.shape[1] != 2 or (pairs[:, 1] < 0).any() or (pairs[:, 1] >= TRACK_ID_SPAN).any()):
+        if pairs.size and (
+            pairs.ndim != 2 or pairs.shape[1] != 2 or (pairs[:, 1] < 0).any() or (pairs[:, 1] >= TRACK_ID_SPAN).any()
+        ):
             raise UserError(f"{self.files.root / relative}: not lines of `frame track_id`")
         return pairs.reshape(-1, 2) @ np.array([TRACK_ID_SPAN, 1])
 
     def frame(self, clip: str, index: int) -> Frame:
         clip_index = self.clip_indices[clip]
         velodyne = velodyne_path(self.tracking, clip_index, index)
-        points, intensity = read_velodyne(self.files.read(velodyne), self.files.root / velodyne, self.files.rows(velodyne))
+        points, intensity = read_velodyne(
+            self.files.read(velodyne), self.files.root / velodyne, self.files.rows(velodyne)
+        )
         labels = self._labels(clip_index, 0 if self.tracking else index)
         mine = labels["frame"] == index if self.tracking else slice(None)
         return Frame(

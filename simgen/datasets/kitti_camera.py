@@ -37,11 +37,16 @@ MIN_BOX_PX = 30.0  # KITTI's evaluators keep boxes of 25 px and more (moderate, 
 MIN_BOX_HEIGHT_M = 0.25  # a humanoid lying on the ground is taller
 NEAR_DEPTH_M = CAMERA_DISTANCE_M - MAX_X_M
 FOCAL_PX = float(math.ceil(MIN_BOX_PX * (CAMERA_DISTANCE_M + MAX_X_M) / MIN_BOX_HEIGHT_M))
-PRINCIPAL_PX = (float(math.ceil(FOCAL_PX * MAX_Y_M / NEAR_DEPTH_M)), float(math.ceil(FOCAL_PX * Z_RANGE_M[1] / NEAR_DEPTH_M)))
+PRINCIPAL_PX = (
+    float(math.ceil(FOCAL_PX * MAX_Y_M / NEAR_DEPTH_M)),
+    float(math.ceil(FOCAL_PX * Z_RANGE_M[1] / NEAR_DEPTH_M)),
+)
 IMAGE_SIZE_PX = (int(2 * PRINCIPAL_PX[0]), math.ceil(FOCAL_PX * (Z_RANGE_M[1] - Z_RANGE_M[0]) / NEAR_DEPTH_M))
 
 VELO_TO_CAM = np.array([[0.0, -1.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.0], [1.0, 0.0, 0.0, CAMERA_DISTANCE_M]])
-PROJECTION = np.array([[FOCAL_PX, 0.0, PRINCIPAL_PX[0], 0.0], [0.0, FOCAL_PX, PRINCIPAL_PX[1], 0.0], [0.0, 0.0, 1.0, 0.0]])
+PROJECTION = np.array(
+    [[FOCAL_PX, 0.0, PRINCIPAL_PX[0], 0.0], [0.0, FOCAL_PX, PRINCIPAL_PX[1], 0.0], [0.0, 0.0, 1.0, 0.0]]
+)
 IDENTITY_3X4 = np.eye(3, 4)
 
 
@@ -94,7 +99,9 @@ def kitti_boxes(boxes: NDArray[np.float32]) -> dict[str, NDArray[np.float64]]:
     }
 
 
-def pitch_boxes(dims: NDArray[np.float64], location: NDArray[np.float64], ry: NDArray[np.float64]) -> NDArray[np.float32]:
+def pitch_boxes(
+    dims: NDArray[np.float64], location: NDArray[np.float64], ry: NDArray[np.float64]
+) -> NDArray[np.float32]:
     """Inverse of `kitti_boxes`: (H, 7) float32 pitch-frame boxes from KITTI dims (h, w, l), location, ry."""
     h, w, length = dims[:, 0], dims[:, 1], dims[:, 2]
     bottom = from_camera(location)

@@ -47,7 +47,9 @@ def row_bytes(schema: pa.Schema) -> int:
             kind = kind.index_type
         width = kind.list_size * kind.value_type.bit_width if pa.types.is_fixed_size_list(kind) else None
         if width is None:
-            width = kind.bit_width if not (pa.types.is_string(kind) or pa.types.is_binary(kind)) else 8 * MAX_STRING_BYTES
+            width = (
+                kind.bit_width if not (pa.types.is_string(kind) or pa.types.is_binary(kind)) else 8 * MAX_STRING_BYTES
+            )
         total += max(width, 8) // 8 + 1  # + a definition level
     return total
 

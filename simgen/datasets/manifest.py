@@ -153,7 +153,9 @@ class ManifestFile(Strict):
     files: list[FileEntry] = Field(min_length=1)
     conventions: dict[str, str]
     totals: Totals
-    labels: dict[Annotated[str, Field(max_length=64)], Annotated[float, Field(ge=0, le=1e15)] | None] = Field(max_length=64)  # label statistics
+    labels: dict[
+        Annotated[str, Field(max_length=64)], Annotated[float, Field(ge=0, le=1e15)] | None
+    ] = Field(max_length=64)  # label statistics
 
     @model_validator(mode="after")
     def _consistent(self) -> ManifestFile:
@@ -206,7 +208,9 @@ def read_manifest(root: Path, name: str = MANIFEST_NAME) -> Manifest:
     try:
         data = json.loads(raw.decode("utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as error:
-        message = " ".join(str(error).splitlines())[:120] if not isinstance(error, RecursionError) else "nested too deeply"
+        message = (
+            " ".join(str(error).splitlines())[:120] if not isinstance(error, RecursionError) else "nested too deeply"
+        )
         raise UserError(f"{path}: not a readable manifest ({error.__class__.__name__}: {message})") from None
     if not isinstance(data, dict) or data.get("schema_version") != SCHEMA_VERSION:
         version = data.get("schema_version") if isinstance(data, dict) else None

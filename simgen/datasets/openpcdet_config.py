@@ -88,14 +88,18 @@ def card_lines() -> list[str]:
     return [
         "Link this folder as OpenPCDet's `data/custom`, save the YAML below as",
         "`tools/cfgs/dataset_configs/simgen_custom.yaml`, then",
-        "`python -m pcdet.datasets.custom.custom_dataset create_custom_infos tools/cfgs/dataset_configs/simgen_custom.yaml`",
+        "`python -m pcdet.datasets.custom.custom_dataset create_custom_infos "
+        "tools/cfgs/dataset_configs/simgen_custom.yaml`",
         "(see simgen's docs/openpcdet.md for PointPillars).",
         "",
         "Class map (`MAP_CLASS_TO_KITTI`; OpenPCDet's evaluation raises `KeyError` on a name it does not list):",
         "",
-        f"- officials ignored: model `CLASS_NAMES: {class_names('ignored')}`, `MAP_CLASS_TO_KITTI: {class_map('ignored')}`",
-        f"- officials as their own class: `CLASS_NAMES: {class_names('own class')}`, `MAP_CLASS_TO_KITTI: {class_map('own class')}`",
-        f"  (KITTI's evaluator knows only its own names: the `{OFFICIAL_AS['own class']}` rows are the officials' scores)",
+        f"- officials ignored: model `CLASS_NAMES: {class_names('ignored')}`, "
+        f"`MAP_CLASS_TO_KITTI: {class_map('ignored')}`",
+        f"- officials as their own class: `CLASS_NAMES: {class_names('own class')}`, "
+        f"`MAP_CLASS_TO_KITTI: {class_map('own class')}`",
+        f"  (KITTI's evaluator knows only its own names: the `{OFFICIAL_AS['own class']}` rows are "
+        "the officials' scores)",
         "",
         "```yaml",
         custom_dataset_yaml().rstrip(),

@@ -2,8 +2,9 @@
 
 `<table>/<clip id>/part-0.parquet` for `frames`, `points` and `boxes` (every row holds its `clip`
 and `frame`), `sensors/part-0.parquet` and `units/part-0.parquet` once per dataset
-(`simgen.datasets.schema`). `points` has row groups of `POINTS_FRAMES_PER_GROUP` frames (row group g holds frames 10 g .. 10 g + 9; a writer keeps about 10 KiB
-of metadata per row group, so a group per frame would grow a whole match's writer by 0.5 GiB);
+(`simgen.datasets.schema`). `points` has row groups of `POINTS_FRAMES_PER_GROUP` frames (row group g
+holds frames 10 g .. 10 g + 9; a writer keeps about 10 KiB of metadata per row group, so a group per
+frame would grow a whole match's writer by 0.5 GiB);
 `frames` and `boxes` have row groups of whole frames. Writer options are fixed and no time stamp is written, so
 the same frames give the same bytes. Pages carry CRC checksums, checked on read: a second guard
 behind the manifest's sha256 (which `verify=False` skips).
@@ -167,8 +168,9 @@ def table_writer(path: Path, name: str) -> pq.ParquetWriter:
 class ParquetClipStream:
     """One clip's tables written as its frames come: `points` in row groups of
     `POINTS_FRAMES_PER_GROUP` frames, `frames` and `boxes` in row groups of `FRAMES_PER_GROUP` frames
-    (only those frames' points and labels are kept meanwhile). Every file lives under a temporary name until `close`; `abort`
-    (or an exception inside `with`) removes them, so a failure leaves no file under a final name."""
+    (only those frames' points and labels are kept meanwhile). Every file lives under a temporary name
+    until `close`; `abort` (or an exception inside `with`) removes them, so a failure leaves no file
+    under a final name."""
 
     TABLES = CLIP_TABLES
 
@@ -238,7 +240,10 @@ def _fixed(table: pa.Table, name: str, shape: tuple[int, ...]) -> NDArray[np.flo
 
 def _point_fields(points: pa.Table) -> dict[str, NDArray]:
     """A frame's `points` rows as the per-point fields `ScanFrame` and `Frame` share."""
-    fields = {name: _column(points, name) for name in ("intensity", "time_offset_s", "sensor", "head", "instance_id", "semantic", "sweep", "line")}
+    fields = {
+        name: _column(points, name)
+        for name in ("intensity", "time_offset_s", "sensor", "head", "instance_id", "semantic", "sweep", "line")
+    }
     return {"points_m": np.stack([_column(points, axis) for axis in "xyz"], axis=1), **fields}
 
 
@@ -312,7 +317,9 @@ def open_table(path: Path, name: str) -> pq.ParquetFile:
     if not isinstance(metadata, dict):
         raise UserError(f"{path}: malformed {METADATA_KEY.decode()} metadata")
     if metadata.get("schema_version") != SCHEMA_VERSION:
-        raise UserError(f"{path}: dataset schema version {metadata.get('schema_version')}, this simgen reads {SCHEMA_VERSION}")
+        raise UserError(
+            f"{path}: dataset schema version {metadata.get('schema_version')}, this simgen reads {SCHEMA_VERSION}"
+        )
     if metadata.get("table") != name or not parquet.schema_arrow.equals(TABLES[name], check_metadata=False):
         raise UserError(f"{path}: not the {name} table of schema version {SCHEMA_VERSION}")
     return parquet
@@ -357,7 +364,9 @@ class ParquetReader:
         counts = frames["num_points"].to_numpy()
         if count:  # before any of the points is read
             worst = int(np.argmax(counts))
-            check_points(self.files.root / table_path("frames", clip), f"frame {worst}", int(counts[worst]), 1, self.most_points)
+            check_points(
+                self.files.root / table_path("frames", clip), f"frame {worst}", int(counts[worst]), 1, self.most_points
+            )
         boxes = self._read("boxes", clip)
         points = self._open("points", clip)
         path = self.files.root / table_path("points", clip)
@@ -381,7 +390,9 @@ class ParquetReader:
             try:
                 table = self._clip(clip).points.read_row_group(group)
             except (OSError, pa.ArrowException) as error:
-                raise UserError(f"{self.files.root / table_path('points', clip)}: unreadable row group {group} ({error})") from None
+                raise UserError(
+                    f"{self.files.root / table_path('points', clip)}: unreadable row group {group} ({error})"
+                ) from None
             self._last_group = ((clip, group), table)
         return self._last_group[1]
 
@@ -389,10 +400,15 @@ class ParquetReader:
         tables = self._clip(clip)
         group = index // POINTS_FRAMES_PER_GROUP
         first = tables.point_offsets[group * POINTS_FRAMES_PER_GROUP]
-        points = self._point_group(clip, group).slice(tables.point_offsets[index] - first, tables.point_offsets[index + 1] - tables.point_offsets[index])
+        points = self._point_group(clip, group).slice(
+            tables.point_offsets[index] - first, tables.point_offsets[index + 1] - tables.point_offsets[index]
+        )
         point_frame = points["frame"]
         if len(point_frame) and not point_frame[0].as_py() == point_frame[-1].as_py() == index:
-            raise UserError(f"{self.files.root / table_path('points', clip)}: frame {index}'s points are not where the frames table counts them")
+            raise UserError(
+                f"{self.files.root / table_path('points', clip)}: frame {index}'s points are not where the frames "
+                "table counts them"
+            )
         boxes = tables.boxes.slice(tables.box_offsets[index], tables.box_offsets[index + 1] - tables.box_offsets[index])
         frame_row = tables.frames.slice(index, 1).to_pylist()[0]
         box_fields = _box_fields(boxes)

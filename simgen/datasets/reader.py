@@ -38,7 +38,10 @@ def check_files_match_clips(root: Path, manifest: Manifest) -> None:
         raise UserError(f"{where}: {missing[0]} is not listed")
     extra = sorted(set(listed) - expected)
     if extra:
-        raise UserError(f"{where}: {extra[0]} belongs to no listed clip frame (frames: {', '.join(f'{c.clip} {c.frames}' for c in manifest.clips[:3])})")
+        raise UserError(
+            f"{where}: {extra[0]} belongs to no listed clip frame "
+            f"(frames: {', '.join(f'{c.clip} {c.frames}' for c in manifest.clips[:3])})"
+        )
 
 
 class Dataset:

@@ -248,7 +248,8 @@ def marker_message(header, ns: str, id: int, type: int, action: int, pose=None, 
     types = _types()
     no_bytes = np.zeros(0, np.uint8)
     return types["visualization_msgs/msg/Marker"](
-        header=header, ns=ns, id=id, type=type, action=action, pose=pose or pose_message(), scale=scale or vector_message(),
+        header=header, ns=ns, id=id, type=type, action=action, pose=pose or pose_message(),
+        scale=scale or vector_message(),
         color=types["std_msgs/msg/ColorRGBA"](*color),
         lifetime=types["builtin_interfaces/msg/Duration"](sec=0, nanosec=0),
         frame_locked=False, points=[vector_message(*p, kind="geometry_msgs/msg/Point") for p in points], colors=[],
@@ -333,14 +334,15 @@ def markers_message(frame: Frame, stamp_ns: int):
     for box, name, track, jumped in zip(np.asarray(frame.boxes, np.float64), names, ids, placed):
         x, y, z, length, width, height, yaw = box.tolist()
         r, g, b, a = BOX_COLOURS.get(str(name), PLAYER_COLOUR)
-        markers.append(marker_message(header, "boxes", int(track), 1, 0, pose_message(x, y, z, yaw), vector_message(length, width, height),
-                               (r, g, b, a), str(name)))
-        markers.append(marker_message(header, "track_ids", int(track), 9, 0, pose_message(x, y, z + height / 2 + TEXT_HEIGHT_M),
-                               vector_message(z=TEXT_HEIGHT_M), (r, g, b, 1.0), str(int(track))))
+        markers.append(marker_message(header, "boxes", int(track), 1, 0, pose_message(x, y, z, yaw),
+                                      vector_message(length, width, height), (r, g, b, a), str(name)))
+        markers.append(marker_message(header, "track_ids", int(track), 9, 0,
+                                      pose_message(x, y, z + height / 2 + TEXT_HEIGHT_M),
+                                      vector_message(z=TEXT_HEIGHT_M), (r, g, b, 1.0), str(int(track))))
         if jumped:
             markers.append(marker_message(header, DISCONTINUITY_NAMESPACE, int(track), 9, 0,
-                                   pose_message(x, y, z + height / 2 + 2.5 * TEXT_HEIGHT_M), vector_message(z=TEXT_HEIGHT_M),
-                                   (1.0, 0.3, 0.3, 1.0), "placed"))
+                                          pose_message(x, y, z + height / 2 + 2.5 * TEXT_HEIGHT_M),
+                                          vector_message(z=TEXT_HEIGHT_M), (1.0, 0.3, 0.3, 1.0), "placed"))
     return marker_array_message(markers)
 
 
@@ -585,8 +587,8 @@ def check_declared_size(data: bytes, path: Path, points: int, frames: int) -> No
     for record in StreamReader(io.BytesIO(data), emit_chunks=True).records:
         declared += record.uncompressed_size if isinstance(record, Chunk) else 0
         if declared > most:
-            raise UserError(f"{path}: its chunks declare over {most:,} bytes, more than {points:,} points in {frames:,} "
-                            f"frames take (manifest.json)")
+            raise UserError(f"{path}: its chunks declare over {most:,} bytes, more than {points:,} points in "
+                            f"{frames:,} frames take (manifest.json)")
 
 
 class BagReader:

@@ -67,8 +67,17 @@ POINTS = pa.schema(
         _field("time_offset_s", pa.float32(), "shot time since the frame's start", "s"),
         _field("sensor", pa.uint8(), "sensor index in the scenario (sensors.sensor_id)"),
         _field("head", pa.uint8(), "head index in its sensor"),
-        _field("sweep", pa.uint8(), "sweep of the frame the shot belongs to, 0 .. sensors.sweeps_per_frame - 1 (time order)"),
-        _field("line", pa.uint8(), "laser of the head that fired the shot (Livox's `line`): shot k of a head fires laser (k - 1) mod its lasers"),
+        _field(
+            "sweep",
+            pa.uint8(),
+            "sweep of the frame the shot belongs to, 0 .. sensors.sweeps_per_frame - 1 (time order)",
+        ),
+        _field(
+            "line",
+            pa.uint8(),
+            "laser of the head that fired the shot (Livox's `line`): shot k of a head fires laser (k - 1) mod its "
+            "lasers",
+        ),
         _field(
             "instance_id",
             pa.int32(),
@@ -98,7 +107,9 @@ BOXES = pa.schema(
         _field("width", pa.float32(), "box size across the heading", "m"),
         _field("height", pa.float32(), "box size along z", "m"),
         _field("yaw", pa.float32(), "heading, counter-clockwise from +x, in (-pi, pi]", "rad"),
-        _field("velocity_mps", pa.list_(pa.float32(), 3), "velocity (x, y, z) of the `middle` keypoint, pitch frame", "m/s"),
+        _field(
+            "velocity_mps", pa.list_(pa.float32(), 3), "velocity (x, y, z) of the `middle` keypoint, pitch frame", "m/s"
+        ),
         _field(
             "keypoints_m",
             pa.list_(pa.float32(), NUM_KEYPOINTS * 3),
@@ -110,7 +121,8 @@ BOXES = pa.schema(
             "discontinuity",
             pa.bool_(),
             "the engine placed this humanoid for a restart between the previous frame's label time and the end of "
-            "this frame's sweep: the box may jump from the previous frame's (same track id), its points may lie at both places",
+            "this frame's sweep: the box may jump from the previous frame's (same track id), "
+            "its points may lie at both places",
         ),
     ]
 )

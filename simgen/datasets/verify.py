@@ -37,7 +37,9 @@ class DatasetFiles:
     def _check(self, relative: str, size: int, digest: str) -> None:
         record = self.records[relative]
         if size != record.bytes:
-            raise UserError(f"{self.root / relative}: {size} bytes, manifest.json says {record.bytes} (truncated or replaced)")
+            raise UserError(
+                f"{self.root / relative}: {size} bytes, manifest.json says {record.bytes} (truncated or replaced)"
+            )
         if digest != record.sha256:
             raise UserError(f"{self.root / relative}: sha256 differs from manifest.json (corrupt or modified)")
         self._checked.add(relative)

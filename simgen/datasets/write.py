@@ -42,12 +42,16 @@ def check_frame(clip: str, expected_index: int, frame: LabelledFrame) -> None:
     """One-line `UserError` unless `frame` is frame `expected_index` of `clip`, with known teams."""
     if frame.clip != clip or frame.index != expected_index:
         raise UserError(
-            f"clip {clip}: frame {expected_index} is frame {frame.index} of clip {frame.clip}, expected the clip's frames in order"
+            f"clip {clip}: frame {expected_index} is frame {frame.index} of clip {frame.clip}, "
+            "expected the clip's frames in order"
             + (" from 0" if expected_index == 0 else "")
         )
     foreign = set(map(str, frame.labels.team)) - set(TEAM_NAMES)
     if foreign:
-        raise UserError(f"clip {clip}, frame {expected_index}: unknown team {sorted(foreign)[0]!r} (expected {', '.join(TEAM_NAMES)})")
+        raise UserError(
+            f"clip {clip}, frame {expected_index}: unknown team {sorted(foreign)[0]!r} "
+            f"(expected {', '.join(TEAM_NAMES)})"
+        )
 
 
 class ClipWriter:
@@ -57,7 +61,9 @@ class ClipWriter:
     Use as a context manager: an exception inside removes the files still under temporary names.
     Frames must come in order from `first_frame`."""
 
-    def __init__(self, root: Path, format: str, clip: str, clip_index: int, sensors: Sequence[Sensor], first_frame: int = 0):
+    def __init__(
+        self, root: Path, format: str, clip: str, clip_index: int, sensors: Sequence[Sensor], first_frame: int = 0
+    ):
         plugin = dataset_format(format)
         if not CLIP_ID.match(clip):
             raise UserError(f"clip id {clip!r}: use a letter, then letters, digits, '_', '.' or '-'")
@@ -159,7 +165,9 @@ def finish_dataset(
         seed=seed,
         sensors=tuple(sorted(sensors, key=lambda s: s.sensor_id)),
         clips=tuple(
-            ClipEntry(c.clip, c.clip_index, c.frames, c.points, c.boxes, "val" if c.clip_index in val else "train", c.start_s)
+            ClipEntry(
+                c.clip, c.clip_index, c.frames, c.points, c.boxes, "val" if c.clip_index in val else "train", c.start_s
+            )
             for c in clips
         ),
         files=tuple(sorted(files, key=lambda f: f.path)),

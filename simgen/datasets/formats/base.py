@@ -85,7 +85,9 @@ class DatasetFormat(ABC):
         """Relative paths of the files `finish` writes once per dataset."""
         return set()
 
-    def finish(self, root: Path, clips: Sequence[ClipRecord], sensors: Sequence[Sensor], scenario: Mapping) -> list[FileRecord]:
+    def finish(
+        self, root: Path, clips: Sequence[ClipRecord], sensors: Sequence[Sensor], scenario: Mapping
+    ) -> list[FileRecord]:
         """Write what needs every clip (or no clip), before the card and the manifest; their records."""
         return []
 
@@ -111,7 +113,8 @@ class DatasetFormat(ABC):
 
     @abstractmethod
     def locator(self, root: Path, entry: ClipEntry, first_row: dict[int, int]) -> Locate:
-        """Where box i of frame k is stored; `first_row[k]` (the clip's boxes before frame k) is filled while reading."""
+        """Where box i of frame k is stored; `first_row[k]` (the clip's boxes before frame k) is filled while
+        reading."""
 
     def clip_problems(self, files: DatasetFiles, entry: ClipEntry, sizes: Sequence[tuple[int, int]]) -> list[Problem]:
         """`simgen verify`: the format's own bookkeeping of a clip against its frames' (points, boxes)."""

@@ -60,13 +60,16 @@ class Kitti(DatasetFormat):
         files = [
             f"- `training/velodyne/NNNNNN.bin`: NNNNNN = clip index x {MAX_FRAMES_PER_CLIP} + frame index",
             "- `training/label_2/NNNNNN.txt`: `type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry`",
-            "- `training/calib/NNNNNN.txt`: KITTI object calib (`P0:`-`P3:`, `R0_rect:`, `Tr_velo_to_cam:`, `Tr_imu_to_velo:`)",
+            "- `training/calib/NNNNNN.txt`: KITTI object calib "
+            "(`P0:`-`P3:`, `R0_rect:`, `Tr_velo_to_cam:`, `Tr_imu_to_velo:`)",
             "- `ImageSets/train.txt`, `val.txt`, `trainval.txt`: sample numbers, split by clip (a dataset of one clip:",
             f"  its last {VAL_FRACTION:.0%} of frames are `val`, so that OpenPCDet's evaluation has a sample)",
         ]
         if images:
-            files.append("- `training/image_2/NNNNNN.png`: blank placeholders of the virtual camera's nominal size (1-bit PNG),"
-                         " for tools that open every image (OpenPCDet's KITTI info generation)")
+            files.append(
+                "- `training/image_2/NNNNNN.png`: blank placeholders of the virtual camera's nominal size (1-bit PNG),"
+                " for tools that open every image (OpenPCDet's KITTI info generation)"
+            )
         return files
 
     def locator(self, root: Path, entry: ClipEntry, first_row: dict[int, int]) -> Locate:
@@ -78,19 +81,23 @@ def _common_layout() -> list[str]:
     min_height_m = camera.MIN_BOX_PX * (camera.CAMERA_DISTANCE_M + camera.MAX_X_M) / camera.FOCAL_PX
     return [
         "",
-        f"`.bin`: float32 x, y, z (metres, **pitch frame**, not the sensor's), intensity / {INTENSITY_SCALE:g} in [0, 1].",
+        f"`.bin`: float32 x, y, z (metres, **pitch frame**, not the sensor's), intensity / {INTENSITY_SCALE:g} "
+        "in [0, 1].",
         "The \"velodyne\" frame of these files is the pitch frame: KITTI tools that assume a sensor at the origin",
         "looking along +x (range crops, field-of-view filters) need the pitch's range instead.",
         "",
         "Labels are in a **virtual camera** (a stationary LiDAR over a pitch has none), stated exactly in `calib/`:",
         f"a pinhole at pitch (-{camera.CAMERA_DISTANCE_M:g}, 0, 0) m looking along +x with KITTI's camera axes,",
-        f"`x_cam = -y`, `y_cam = -z`, `z_cam = x + {camera.CAMERA_DISTANCE_M:g}` (`Tr_velo_to_cam`; `R0_rect` = identity;",
+        f"`x_cam = -y`, `y_cam = -z`, `z_cam = x + {camera.CAMERA_DISTANCE_M:g}` "
+        "(`Tr_velo_to_cam`; `R0_rect` = identity;",
         f"`Tr_imu_to_velo` = identity, there is no IMU), focal length {camera.FOCAL_PX:g} px, principal point",
-        f"{camera.PRINCIPAL_PX} px, nominal image {camera.IMAGE_SIZE_PX[0]} x {camera.IMAGE_SIZE_PX[1]} px (image files only as placeholders).",
+        f"{camera.PRINCIPAL_PX} px, nominal image {camera.IMAGE_SIZE_PX[0]} x {camera.IMAGE_SIZE_PX[1]} px "
+        "(image files only as placeholders).",
         "`location` is the box's bottom centre in that camera, `h w l` its height, width (across the heading) and",
         "length (along it), `ry = -yaw - pi/2`; `alpha = ry - atan2(x_cam, z_cam)`. The 2D box is the projection of",
         "the 8 corners with P2 (not clipped): a box",
-        f"{min_height_m:.2f} m tall or more is at least {camera.MIN_BOX_PX:g} px tall anywhere up to x = {camera.MAX_X_M:g} m,",
+        f"{min_height_m:.2f} m tall or more is at least {camera.MIN_BOX_PX:g} px tall "
+        f"anywhere up to x = {camera.MAX_X_M:g} m,",
         "so KITTI's evaluators (which drop boxes under 25-40 px) keep every humanoid.",
         "`truncated` is 0; `occluded` is 0, or 3 (unknown) for a humanoid with no point on it in that frame.",
     ]

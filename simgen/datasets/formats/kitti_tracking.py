@@ -32,7 +32,8 @@ class KittiTracking(Kitti):
             "- `training/velodyne/SSSS/NNNNNN.bin`: SSSS the clip index, NNNNNN the frame index in the clip",
             "- `training/label_02/SSSS.txt`: `frame track_id type truncated occluded alpha x1 y1 x2 y2 h w l x y z ry`",
             "- `training/calib/SSSS.txt`: KITTI tracking calib (`P0:`-`P3:`, `R_rect`, `Tr_velo_cam`, `Tr_imu_velo`)",
-            "- `training/placements/SSSS.txt`: `frame track_id` of each box with a discontinuity (Restarts, below); KITTI's",
+            "- `training/placements/SSSS.txt`: `frame track_id` of each box with a discontinuity "
+            "(Restarts, below); KITTI's",
             "  tracking tools ignore the folder",
         ]
 

@@ -53,7 +53,8 @@ class OpenPCDet(DatasetFormat):
             "- `ImageSets/train.txt`, `val.txt`, `trainval.txt`: sample numbers, split by clip (a dataset of one clip:",
             f"  its last {VAL_FRACTION:.0%} of frames are `val`, so that OpenPCDet's evaluation has a sample)",
             "",
-            f"NNNNNN = clip index x {MAX_FRAMES_PER_CLIP} + frame index. The `POINT_CLOUD_RANGE` must cover the pitch about",
+            f"NNNNNN = clip index x {MAX_FRAMES_PER_CLIP} + frame index. "
+            "The `POINT_CLOUD_RANGE` must cover the pitch about",
             "its centre (the points are not centred on the sensor).",
             "",
             "### OpenPCDet",

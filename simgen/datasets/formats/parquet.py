@@ -63,16 +63,21 @@ class Parquet(DatasetFormat):
 
     def listed_rows_problem(self, entry: ClipEntry, listed: Mapping[str, FileRecord], sensors: int) -> str | None:
         rows = listed[table_path("frames", entry.clip)].rows
-        return None if rows == entry.frames else f"clip {entry.clip} lists {entry.frames} frames, its frames table {rows}"
+        return (
+            None if rows == entry.frames else f"clip {entry.clip} lists {entry.frames} frames, its frames table {rows}"
+        )
 
     def card_layout(self, manifest: Manifest) -> list[str]:
         lines = [
             "Apache Parquet, zstd, laid out like Waymo Open Dataset v2: one table per component, a file per clip",
             "(`<table>/<clip id>/part-0.parquet`) whose rows carry their keys `clip` and `frame` inside the file (so a",
             "file copied out of its folder still says what it holds), and `sensors/part-0.parquet` once per dataset.",
-            "`points` row groups hold 10 whole frames (group g: frames 10 g .. 10 g + 9); `frames` and `boxes` row groups",
-            "hold whole frames. Units and meanings are in each field's metadata (`unit`, `doc`), which only pyarrow shows,",
-            "and, for duckdb, polars and pandas, as rows of the `units` table (`units/part-0.parquet`, once per dataset):",
+            "`points` row groups hold 10 whole frames (group g: frames 10 g .. 10 g + 9); "
+            "`frames` and `boxes` row groups",
+            "hold whole frames. Units and meanings are in each field's metadata (`unit`, `doc`), "
+            "which only pyarrow shows,",
+            "and, for duckdb, polars and pandas, as rows of the `units` table "
+            "(`units/part-0.parquet`, once per dataset):",
             "`duckdb -c \"select * from 'units/*.parquet' where table_name = 'points'\"`.",
         ]
         for name, schema in TABLES.items():
@@ -123,12 +128,16 @@ class Parquet(DatasetFormat):
         for row, (points, boxes) in enumerate(sizes):
             stored = {name: frames[name][row] for name in ("num_points", "num_boxes", "shots", "dropped", "missed")}
             if stored["num_points"] != points:
-                problems.append(Problem(path, row, f"num_points is {stored['num_points']}, the frame has {points} points"))
+                problems.append(
+                    Problem(path, row, f"num_points is {stored['num_points']}, the frame has {points} points")
+                )
             if stored["num_boxes"] != boxes:
                 problems.append(Problem(path, row, f"num_boxes is {stored['num_boxes']}, the frame has {boxes} boxes"))
             returns = stored["shots"] - stored["dropped"] - stored["missed"]
             if returns != stored["num_points"]:
-                problems.append(Problem(path, row, f"shots - dropped - missed = {returns}, num_points is {stored['num_points']}"))
+                problems.append(
+                    Problem(path, row, f"shots - dropped - missed = {returns}, num_points is {stored['num_points']}")
+                )
         return problems
 
     def frame_counts(self, files: DatasetFiles, clips: Sequence[str]) -> dict[str, np.ndarray]:
