@@ -364,8 +364,9 @@ def test_an_output_inside_the_dataset_it_reads_is_refused(world, tmp_path, comma
     shutil.copytree(world["dataset"], dataset)
     before = _snapshot(dataset)
     first = world["config"] if command == "fit" else world["whole"] / CHECKPOINT_NAME
+    split = [] if command == "fit" else ["--split", "all"]  # the smoke dataset's one clip is a train clip
     for out in (dataset, dataset / "sub", dataset / "." / "sub" / ".." / "x"):
-        code, out_text, err = run_main(main, command, first, "--dataset", dataset, "-o", out, "--quiet")
+        code, out_text, err = run_main(main, command, first, "--dataset", dataset, "-o", out, "--quiet", *split)
         assert_one_line_refusal(code, out_text, err, (command, out))
         assert "inside the dataset it reads" in err
     assert _snapshot(dataset) == before and not (dataset / "sub").exists()
@@ -400,18 +401,22 @@ def test_kill_and_resume_cycles_of_fit_with_workers_leave_no_process(world, tmp_
 
 
 def test_a_killed_study_takes_its_simgen_generate_with_it(tmp_path):
-    """`study` of a scenario whose dataset is missing runs `simgen generate`; SIGKILL the study alone once
-    the generate runs: the generate goes too, within GONE_S."""
+    """`study` of a scenario whose dataset is missing runs `simgen generate` (50 smoke clips, minutes of
+    work; its progress on the study's stderr, a file here); SIGKILL the study alone once the generate runs:
+    the generate goes too, within GONE_S."""
+    scenario = yaml.safe_load(SMOKE.read_text())
+    scenario.update(name="smoke_long", dataset={"clips": 50})
+    (tmp_path / "long.yaml").write_text(yaml.safe_dump(scenario))
     configs = tmp_path / "configs"
     configs.mkdir()
     (configs / "late.yaml").write_text(yaml.safe_dump(tiny_config("late", iterations=1).model_dump(mode="json")))
-    command = [sys.executable, "-m", "train.cli", "study", str(SMOKE), "-o", str(tmp_path / "out"), "--datasets",
-               str(tmp_path / "datasets"), "--configs", str(configs), "--device", "cpu", "--quiet"]
-    study = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                             start_new_session=True)
+    command = [sys.executable, "-m", "train.cli", "study", str(tmp_path / "long.yaml"), "-o", str(tmp_path / "out"),
+               "--datasets", str(tmp_path / "datasets"), "--configs", str(configs), "--device", "cpu"]
+    with open(tmp_path / "study.log", "w") as log:
+        study = subprocess.Popen(command, cwd=ROOT, stdout=log, stderr=log, start_new_session=True)
 
     def generating() -> bool:
-        assert study.poll() is None, study.stderr.read().decode()
+        assert study.poll() is None, (tmp_path / "study.log").read_text()
         return any(" generate " in line for _, line in _session(study.pid))
 
     _wait(generating, 120, "the study's simgen generate")
