@@ -16,6 +16,7 @@ import subprocess
 import sys
 import time
 import zipfile
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -25,7 +26,7 @@ import yaml
 from tests.support import ROOT
 from tests.support.detector import SMOKE, smoke_dataset, tiny_config
 from tests.support.hostile import assert_one_line_refusal, run_main
-from train.checkpoint import load_checkpoint
+from train.checkpoint import load_checkpoint, save_checkpoint
 from train.cli import main
 from train.fit import CHECKPOINT_NAME, LOG_NAME
 
@@ -202,11 +203,11 @@ BAD_LOGS = {
     "missing": (None, "missing or not a file; a resumed fit goes on with its log"),
     "garbage": (lambda log: b"\x00\xff garbage \x80" * 50, "its first line is not this training's header"),
     "another header": (lambda log: log.replace(b"loss_cls", b"loss_xyz", 1), "is not this training's header"),
-    "cut mid-row": (_cut_mid_row, "line 3 is not the whole row of iteration 2 (the checkpoint is at 2)"),
-    "cut at a field": (_cut_at_a_field, "line 3 is not the whole row of iteration 2"),
+    "cut mid-row": (_cut_mid_row, "line 3 is not a whole row of an iteration after 1, up to the checkpoint's 2"),
+    "cut at a field": (_cut_at_a_field, "line 3 is not a whole row of an iteration after 1"),
     "a row missing": (lambda log: b"\r\n".join(log.split(b"\r\n")[:1] + log.split(b"\r\n")[2:]),
-                      "line 2 is not the whole row of iteration 1"),
-    "a row not numbers": (lambda log: log.replace(b"\r\n2,", b"\r\n2,x", 1), "line 3 is not the whole row"),
+                      "line 3 is not a whole row of an iteration after 2"),
+    "a row not numbers": (lambda log: log.replace(b"\r\n2,", b"\r\n2,x", 1), "line 3 is not a whole row"),
     "a directory": (None, "missing or not a file; a resumed fit goes on with its log"),
 }
 
@@ -228,6 +229,23 @@ def test_a_resumed_fit_refuses_a_damaged_log_in_one_line(world, tmp_path, case):
     assert_one_line_refusal(code, out, err, case)
     assert message in err and "--overwrite starts the run again" in err, err
     assert _snapshot(run) == before
+
+
+def test_a_checkpoint_from_before_log_bytes_resumes_by_log_every(world, tmp_path):
+    """A checkpoint that does not record its log's length (written before it did): the rows up to it are one
+    every `train.log_every` iterations; the fit resumes to the uninterrupted log, and a cut log is refused."""
+    run = _stopped(world, tmp_path / "run")
+    old = replace(load_checkpoint(run / CHECKPOINT_NAME), log_bytes=None)
+    save_checkpoint(run / CHECKPOINT_NAME, old)
+    log = (run / LOG_NAME).read_bytes()
+    (run / LOG_NAME).write_bytes(_cut_mid_row(log))
+    code, out, err = _fit(world, run, "--resume")
+    assert_one_line_refusal(code, out, err, "a cut log, an older checkpoint")
+    assert "line 3 is not a whole row of an iteration after 1, up to the checkpoint's 2" in err
+    (run / LOG_NAME).write_bytes(log)
+    code, _, err = _fit(world, run, "--resume")
+    assert code == 0, err
+    assert [r["loss"] for r in _log(run)] == [r["loss"] for r in _log(world["whole"])]
 
 
 # --- checkpoints checked before use -------------------------------------------------------------

@@ -26,6 +26,7 @@ class Checkpoint:
     model: dict[str, torch.Tensor]
     optimizer: dict[str, Any] | None
     iteration: int
+    log_bytes: int | None = None  # train_log.csv's length when saved: its rows up to `iteration` (None: not known)
 
 
 def save_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
@@ -38,6 +39,7 @@ def save_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
         "model": checkpoint.model,
         "optimizer": checkpoint.optimizer,
         "iteration": checkpoint.iteration,
+        "log_bytes": checkpoint.log_bytes,
     }
     with atomic_path(path) as tmp, open(tmp, "wb") as file:
         torch.save(payload, file)
@@ -102,4 +104,7 @@ def load_checkpoint(path: str | Path) -> Checkpoint:
         raise UserError(f"{path}: its 'model' is not a state dict of tensors")
     if not (optimizer is None or isinstance(optimizer, dict)) or type(iteration) is not int or iteration < 0:
         raise UserError(f"{path}: its 'optimizer' or 'iteration' is not what simgen-train writes")
-    return Checkpoint(config, model, optimizer, iteration)
+    log_bytes = payload.get("log_bytes")  # absent from checkpoints written before it was recorded
+    if not (log_bytes is None or (type(log_bytes) is int and log_bytes >= 0)):
+        raise UserError(f"{path}: its 'log_bytes' is not what simgen-train writes")
+    return Checkpoint(config, model, optimizer, iteration, log_bytes)

@@ -26,7 +26,7 @@ from train.evaluation.ap_table import average_precisions, mean_ap
 from train.evaluation.learning_curve import CurvePoint, read_curve, write_curve
 from train.preflight import check_resume
 from train.run_folder import CHECKPOINT_NAME, LOG_NAME, RunFolder
-from train.train_log import TrainLog, log_fields, new_log, resumed_log
+from train.train_log import TrainLog, check_log, continued_log, log_fields, new_log
 
 
 def one_cycle_lr(step: int, total: int, peak: float) -> float:
@@ -83,9 +83,7 @@ def fit(config: DetectorConfig, dataset: str, out: Path, device: torch.device, p
         first = 0
         if resume:
             saved = check_resume(out / CHECKPOINT_NAME, config)
-            log, losses, torn = resumed_log(out / LOG_NAME, fields, saved.iteration, train.log_every)
-            if torn:
-                print(f"{out / LOG_NAME}: dropped its torn last row (written as the fit was killed)", file=sys.stderr)
+            checked = check_log(out / LOG_NAME, fields, saved.iteration, saved.log_bytes, train.log_every)
             model.load_state_dict(saved.model)
             optimizer.load_state_dict(saved.optimizer)
             first = saved.iteration
@@ -94,7 +92,11 @@ def fit(config: DetectorConfig, dataset: str, out: Path, device: torch.device, p
         if train.eval_every:
             SampleSet(dataset, "val", config)  # no val clips: say so now, not after training
         folder.start()
-        if not resume:
+        if resume:
+            log, losses = continued_log(checked, fields), checked.losses
+            if checked.torn:
+                print(f"{out / LOG_NAME}: dropped its torn last row (written as the fit was killed)", file=sys.stderr)
+        else:
             log, losses = new_log(out / LOG_NAME, fields), []
         try:
             return _train(model, optimizer, samples, config, dataset, out, device, progress, first, log, losses,
@@ -112,9 +114,8 @@ def _train(model: Detector, optimizer: torch.optim.Optimizer, samples: SampleSet
     curve: list[CurvePoint] = read_curve(out, first) if first else []
 
     def save(iteration: int) -> Path:
-        log.sync()
-        path = out / CHECKPOINT_NAME
-        save_checkpoint(path, Checkpoint(config, model.state_dict(), optimizer.state_dict(), iteration))
+        path, log_bytes = out / CHECKPOINT_NAME, log.sync()
+        save_checkpoint(path, Checkpoint(config, model.state_dict(), optimizer.state_dict(), iteration, log_bytes))
         return path
 
     start, val_s, done = time.perf_counter(), 0.0, first
