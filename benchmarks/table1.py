@@ -57,7 +57,7 @@ def main() -> int:
         dataset = str(Path(args.datasets) / f"paper_{density}")
         run = out / f"{model}_{density}"
         start = time.perf_counter()
-        trained = fit(config, dataset, run, device, progress=False)
+        trained = fit(config, dataset, run, device, progress=False, overwrite=True)
         fit_s = time.perf_counter() - start
         checkpoint = load_checkpoint(trained.checkpoint)
         detector = Detector(checkpoint.config)

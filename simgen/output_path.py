@@ -55,6 +55,10 @@ def check_output(
     if any(target == tree or tree in target.parents for tree in SYSTEM_TREES):
         raise UserError(f"{path}: under {next(t for t in SYSTEM_TREES if t == target or t in target.parents)}, "
                         f"a system file system, not an output")
+    for read in reads:
+        source = Path(read).resolve()
+        if target == source or source in target.parents:
+            raise UserError(f"{path}: inside {read}, which this command reads (write elsewhere)")
     if path.exists():
         mode = path.stat().st_mode
         if stat.S_IFMT(mode) in _KINDS:
@@ -66,10 +70,6 @@ def check_output(
         if kind == "folder" and not stat.S_ISDIR(mode):
             raise UserError(f"{path}: exists and is not a directory")
     _check_parent(path, target)
-    for read in reads:
-        source = Path(read).resolve()
-        if target == source or source in target.parents:
-            raise UserError(f"{path}: inside {read}, which this command reads (write elsewhere)")
     check_output_allowed(path)
     return path
 

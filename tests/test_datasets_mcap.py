@@ -262,7 +262,7 @@ def test_export_from_kitti_has_one_points_topic_of_what_kitti_keeps(tmp_path, ca
         np.testing.assert_array_equal(np.stack([got["x"], got["y"], got["z"]], 1), want.points_m)
         np.testing.assert_array_equal(got["intensity"], want.intensity)
     assert main(["export", str(tmp_path / "kitti"), "-o", str(tmp_path)]) == 2
-    assert capsys.readouterr().err == f"simgen export: error: {tmp_path}: exists already; give a new name\n"
+    assert capsys.readouterr().err == f"simgen export: error: {tmp_path}: already exists\n"
     assert main(["export", str(tmp_path / "kitti"), "-o", str(tmp_path / "livox.mcap"), "--ros2-layout", "livox"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--ros2-layout livox: a kitti dataset keeps no sensor" in err

@@ -349,7 +349,7 @@ def test_a_bag_holding_more_points_than_its_manifest_lists_is_refused_before_it_
     manifest = json.loads((root / MANIFEST_NAME).read_text())
     manifest["clips"][0]["points"] = manifest["totals"]["points"] = 1000
     (root / MANIFEST_NAME).write_text(json.dumps(manifest))
-    assert (root / "clip_0000.mcap").stat().st_size < 3_000_000
+    assert (root / "clip_0000" / "clip_0000.mcap").stat().st_size < 3_000_000
     with pytest.raises(UserError, match=r"chunks declare over .* bytes, more than 1,000 points in 2 frames take"):
         simgen.datasets.open(root).frame("clip_0000", 0)
     code, out, err, peak, _ = measured_process("simgen.cli", "export", root, "-o", tmp_path / "out.mcap")

@@ -29,10 +29,9 @@ from train.config import MAX_ITERATIONS, MAX_SEED, MAX_WORKERS, DetectorConfig, 
 from train.detector.inference import detect
 from train.detector.model import Detector
 from train.evaluation.ap_table import evaluate, format_ap_table, write_ap_csv
-from train.fit import CHECKPOINT_NAME, fit
+from train.fit import fit
 from train.preflight import (
     check_memory,
-    check_resume,
     check_workers,
     dataset_points_per_frame,
     parse_seeds,
@@ -97,13 +96,18 @@ def _count(option: str, low: int, high: int):
     return parse
 
 
-def _output(path: str) -> Path:
-    """The output folder: allowed ($SIMGEN_OUTPUT_ROOTS), and it or the nearest folder that exists above it a folder."""
+def _output(path: str, dataset: str | None = None) -> Path:
+    """The output folder: allowed ($SIMGEN_OUTPUT_ROOTS), it or the nearest folder that exists above it a folder,
+    and not inside `dataset`, the dataset the command reads."""
     check_output_allowed(path)
     out = Path(path)
     existing = next((p for p in (out, *out.absolute().parents) if p.exists()), Path("/"))
     if not existing.is_dir():
         raise UserError(f"-o {path}: {existing} exists and is not a folder")
+    if dataset is not None:
+        read, target = Path(dataset).resolve(), out.resolve()
+        if target == read or read in target.parents:
+            raise UserError(f"-o {path}: inside the dataset it reads ({dataset}); write elsewhere")
     return out
 
 
@@ -150,12 +154,10 @@ def _preflight(config: DetectorConfig, points_per_frame: int, device: torch.devi
 
 def _fit(args: argparse.Namespace) -> int:
     config = _overridden(load_config(args.config), args.config, iterations=args.iterations, workers=args.workers)
-    out, dataset, device = _output(args.output), _dataset(args.dataset), _device(args.device)
+    out, dataset, device = _output(args.output, args.dataset), _dataset(args.dataset), _device(args.device)
     _preflight(config, dataset_points_per_frame(dataset), device)
-    if args.resume:
-        check_resume(out / CHECKPOINT_NAME, config)
-    result = fit(config, args.dataset, out, device, not args.quiet, resume=args.resume, stop_at=args.stop_at,
-                 stop_after_s=args.stop_after)
+    result = fit(config, args.dataset, out, device, not args.quiet, resume=args.resume, overwrite=args.overwrite,
+                 stop_at=args.stop_at, stop_after_s=args.stop_after)
     print(f"{result.checkpoint}: {result.iterations} iterations, {result.samples_per_s:.2f} samples/s")
     if result.stopped:
         print(f"stopped at iteration {result.iterations} of {config.train.iterations}: run the same command with "
@@ -164,10 +166,10 @@ def _fit(args: argparse.Namespace) -> int:
 
 
 def _eval(args: argparse.Namespace) -> int:
-    out, dataset, device = _output(args.output), _dataset(args.dataset), _device(args.device)
+    out, dataset, device = _output(args.output, args.dataset), _dataset(args.dataset), _device(args.device)
     model, config, iteration = _model(args.checkpoint, dataset, device)
-    out.mkdir(parents=True, exist_ok=True)
     result = evaluate(model, config, args.dataset, _split(args.split), device, not args.quiet)
+    out.mkdir(parents=True, exist_ok=True)
     write_ap_csv(out / "ap.csv", result.rows, {"model": config.name, "iteration": str(iteration), "split": args.split})
     print(format_ap_table(result.rows))
     print(f"{out / 'ap.csv'}: {config.name} at iteration {iteration}, {result.frames_per_s:.2f} frames/s")
@@ -175,7 +177,7 @@ def _eval(args: argparse.Namespace) -> int:
 
 
 def _detect(args: argparse.Namespace) -> int:
-    out, dataset, device = _output(args.output), _dataset(args.dataset), _device(args.device)
+    out, dataset, device = _output(args.output, args.dataset), _dataset(args.dataset), _device(args.device)
     model, config, _ = _model(args.checkpoint, dataset, device)
     paths = detect(model, config, args.dataset, _split(args.split), device, out, not args.quiet)
     print(f"{out}: tracklets of {len(paths)} clips in tracklets/, KITTI labels in kitti/")
@@ -395,7 +397,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--iterations", type=ITERATIONS, help="override train.iterations")
     p.add_argument("--workers", type=WORKERS, help="override train.workers (loader processes, at most the CPU cores)")
     p.add_argument("--resume", action="store_true", help="continue the fit in OUTPUT from its checkpoint (weights, "
-                   "optimiser, schedule and sample stream): the same weights as one uninterrupted fit")
+                   "optimiser, schedule and sample stream) and its log: the same weights as one uninterrupted fit")
+    p.add_argument("--overwrite", action="store_true", help="replace the run OUTPUT holds (without --resume or this, "
+                   "a folder holding a checkpoint or a log is refused)")
     p.add_argument("--stop-at", type=ITERATIONS, metavar="ITERATION", help="checkpoint at this iteration and stop "
                    "(then --resume)")
     p.add_argument("--stop-after", type=_seconds, metavar="SECONDS", help="checkpoint once this run has trained this "

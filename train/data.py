@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
 from typing import Any
@@ -24,6 +25,7 @@ from numpy.typing import NDArray
 import simgen.datasets
 from simgen.errors import UserError
 from train.config import TRACKLET_FRAMES, AugmentConfig, DetectorConfig
+from train.parent_death import die_with_parent
 
 Assign = Callable[[NDArray[np.float32], NDArray[np.bool_]], Any]  # (boxes (G, 3, 7), box_mask (G, 3)) -> targets
 
@@ -277,9 +279,15 @@ class SampleSet(torch.utils.data.Dataset):
         return encode_sample(crop(sample, self.config.data.point_range_m), self.config, self.assign)
 
 
+def _worker_start(parent: int, worker: int) -> None:
+    """A loader worker's first step: die with `parent`, the process that iterates the loader."""
+    die_with_parent(parent)
+
+
 def loader(samples: SampleSet, batch_size: int, workers: int, collate_targets: Callable[[list], Any] | None = None,
            pin_memory: bool = False) -> Iterator[Batch]:
-    """Batches in order, built by `workers` processes ahead of the model (0: in this process).
+    """Batches in order, built by `workers` processes ahead of the model (0: in this process), which die
+    with this one (train.parent_death).
 
     `pin_memory`: batches in page-locked memory, for `Batch.to(cuda, non_blocking=True)`.
     """
@@ -297,5 +305,6 @@ def loader(samples: SampleSet, batch_size: int, workers: int, collate_targets: C
             pin_memory=pin_memory,
             prefetch_factor=4 if workers else None,
             persistent_workers=False,
+            worker_init_fn=functools.partial(_worker_start, os.getpid()),
         )
     )

@@ -7,8 +7,8 @@ pass runs under bfloat16 autocast (`train.bf16`), the loss in float32.
 from __future__ import annotations
 
 import contextlib
-import csv
 import math
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,9 +26,8 @@ from train.detector.model import Detector, build_detector
 from train.evaluation.ap_table import average_precisions, mean_ap
 from train.evaluation.learning_curve import CurvePoint, read_curve, write_curve
 from train.preflight import check_resume
-
-CHECKPOINT_NAME = "checkpoint.pt"
-LOG_NAME = "train_log.csv"
+from train.run_folder import CHECKPOINT_NAME, LOG_NAME, RunFolder
+from train.train_log import TrainLog, check_log, continued_log, log_fields, new_log
 
 
 def one_cycle_lr(step: int, total: int, peak: float) -> float:
@@ -65,94 +64,96 @@ def _val_point(
     return CurvePoint(iteration, rows, time.perf_counter() - start)
 
 
-def _resumed(out: Path, config: DetectorConfig, model: Detector, optimizer: torch.optim.Optimizer) -> int:
-    """Load OUT's checkpoint into model and optimiser (train.preflight.check_resume: the same training,
-    with iterations left); the iteration it was saved at."""
-    saved = check_resume(out / CHECKPOINT_NAME, config)
-    model.load_state_dict(saved.model)
-    optimizer.load_state_dict(saved.optimizer)
-    return saved.iteration
-
-
-def _log_rows(out: Path, until: int) -> tuple[list[dict], list[tuple[int, float]]]:
-    """A resumed fit's earlier log rows (up to `until`) and their losses."""
-    with open(out / LOG_NAME, newline="") as file:
-        rows = [row for row in csv.DictReader(file) if int(row["iteration"]) <= until]
-    return rows, [(int(row["iteration"]), float(row["loss"])) for row in rows]
-
-
 def fit(config: DetectorConfig, dataset: str, out: Path, device: torch.device, progress: bool = True, *,
-        resume: bool = False, stop_at: int | None = None, stop_after_s: float | None = None) -> FitResult:
+        resume: bool = False, overwrite: bool = False, stop_at: int | None = None,
+        stop_after_s: float | None = None) -> FitResult:
     """Train for `config.train.iterations` batches on the dataset's `train` clips; write into `out`.
 
     With `train.eval_every`, also score the val clips every that many iterations and after the
     last one (learning_curve.csv and .png); the weights do not depend on it. `resume`: continue the
-    fit in `out` from its checkpoint (weights, optimiser, schedule, the stream of samples), to the
-    same weights an uninterrupted fit reaches. `stop_at` (an iteration) or `stop_after_s` (seconds of
-    this run): checkpoint there and stop, to be resumed.
+    fit in `out` from its checkpoint (weights, optimiser, schedule, the stream of samples) and its log,
+    to the same weights an uninterrupted fit reaches. `overwrite`: replace the run `out` holds (without
+    either, a folder holding a run is refused: train.run_folder). `stop_at` (an iteration) or
+    `stop_after_s` (seconds of this run): checkpoint there and stop, to be resumed.
     """
     train = config.train
     model = build_detector(config).to(device).train()
-    step_model = accelerate(model, train, device)
-    assigner = model.head.assigner
     optimizer = torch.optim.AdamW(model.parameters(), lr=train.lr, betas=(0.95, 0.99), weight_decay=train.weight_decay)
-    first = _resumed(out, config, model, optimizer) if resume else 0
-    samples = SampleSet(dataset, "train", config, draws=train.iterations * train.batch_size, assign=assigner,
-                        first_draw=first * train.batch_size)
-    if train.eval_every:
-        SampleSet(dataset, "val", config)  # no val clips: say so now, not after training
-    out.mkdir(parents=True, exist_ok=True)
-    fields = ["iteration", "seconds", "samples_per_s", "lr", "loss", "loss_cls", "loss_dir"]
-    fields += [f"loss_loc_{k}" for k in range(config.model.head.tracklet_boxes)]
-    cuda = device.type == "cuda"
-    earlier, losses = _log_rows(out, first) if resume else ([], [])
-    curve: list[CurvePoint] = read_curve(out, first) if resume else []
-    last = min(train.iterations, stop_at) if stop_at is not None else train.iterations
+    fields = log_fields(config.model.head.tracklet_boxes)
+    with RunFolder(out, resume, overwrite) as folder:
+        first = 0
+        if resume:
+            saved = check_resume(out / CHECKPOINT_NAME, config)
+            checked = check_log(out / LOG_NAME, fields, saved.iteration, saved.log_bytes, train.log_every)
+            model.load_state_dict(saved.model)
+            optimizer.load_state_dict(saved.optimizer)
+            first = saved.iteration
+        samples = SampleSet(dataset, "train", config, draws=train.iterations * train.batch_size,
+                            assign=model.head.assigner, first_draw=first * train.batch_size)
+        if train.eval_every:
+            SampleSet(dataset, "val", config)  # no val clips: say so now, not after training
+        folder.start()
+        if resume:
+            log, losses = continued_log(checked, fields), checked.losses
+            if checked.torn:
+                print(f"{out / LOG_NAME}: dropped its torn last row (written as the fit was killed)", file=sys.stderr)
+        else:
+            log, losses = new_log(out / LOG_NAME, fields), []
+        try:
+            return _train(model, optimizer, samples, config, dataset, out, device, progress, first, log, losses,
+                          train.iterations if stop_at is None else min(train.iterations, stop_at), stop_after_s)
+        finally:
+            log.close()
+
+
+def _train(model: Detector, optimizer: torch.optim.Optimizer, samples: SampleSet, config: DetectorConfig, dataset: str,
+           out: Path, device: torch.device, progress: bool, first: int, log: TrainLog,
+           losses: list[tuple[int, float]], last: int, stop_after_s: float | None) -> FitResult:
+    """Iterations `first` + 1 to `last` (or fewer, out of time), logged, checkpointed every
+    `train.checkpoint_every` and at the end, each checkpoint after the log rows it follows are on disk."""
+    train, cuda = config.train, device.type == "cuda"
+    step_model = accelerate(model, train, device)
+    curve: list[CurvePoint] = read_curve(out, first) if first else []
 
     def save(iteration: int) -> Path:
-        path = out / CHECKPOINT_NAME
-        save_checkpoint(path, Checkpoint(config, model.state_dict(), optimizer.state_dict(), iteration))
+        path, log_bytes = out / CHECKPOINT_NAME, log.sync()
+        save_checkpoint(path, Checkpoint(config, model.state_dict(), optimizer.state_dict(), iteration, log_bytes))
         return path
 
     start, val_s, done = time.perf_counter(), 0.0, first
-    with open(out / LOG_NAME, "w", newline="") as log_file:  # flushed row by row, for a reader to follow
-        log = csv.DictWriter(log_file, fieldnames=fields)
-        log.writeheader()
-        log.writerows(earlier)
-        batches = loader(samples, train.batch_size, train.workers, assigner.collate, pin_memory=cuda)
-        bar = tqdm(batches, initial=first, total=train.iterations, desc=f"fit {config.name}", unit="it",
-                   disable=not progress, dynamic_ncols=True)
-        for step, batch in enumerate(bar, start=first):
-            lr = one_cycle_lr(step, train.iterations, train.lr)
-            for group in optimizer.param_groups:
-                group["lr"] = lr
-            batch = batch.to(device, non_blocking=cuda)
-            with autocast(device, train.bf16):
-                output = step_model(batch)
-            terms = detection_loss(output.float(), batch.targets, config.loss)
-            optimizer.zero_grad(set_to_none=True)
-            terms.total.backward()
-            torch.nn.utils.clip_grad_norm_(model.parameters(), train.grad_clip)
-            optimizer.step()
-            done = step + 1
-            if done % train.log_every == 0 or done == train.iterations:
-                values = terms.as_floats()
-                losses.append((done, values["loss"]))
-                seconds = time.perf_counter() - start
-                log.writerow({"iteration": done, "seconds": f"{seconds:.2f}",
-                              "samples_per_s": f"{(done - first) * train.batch_size / (seconds - val_s):.3f}",
-                              "lr": f"{lr:.6g}", **{k: f"{v:.5f}" for k, v in values.items()}})
-                log_file.flush()
-                bar.set_postfix(loss=f"{values['loss']:.3f}", cls=f"{values['loss_cls']:.3f}")
-            if train.eval_every and (done % train.eval_every == 0 or done == train.iterations):
-                curve.append(_val_point(model, config, dataset, device, done))
-                val_s += curve[-1].eval_s
-                write_curve(out, curve, losses, f"{config.name}: AP on val while training")
-                bar.set_postfix(loss=f"{terms.as_floats()['loss']:.3f}", ap3d=f"{mean_ap(curve[-1].rows, '3d'):.1f}")
-            out_of_time = stop_after_s is not None and time.perf_counter() - start >= stop_after_s
-            if done == last or out_of_time:
-                break
-            if done % train.checkpoint_every == 0:
-                save(done)
+    batches = loader(samples, train.batch_size, train.workers, model.head.assigner.collate, pin_memory=cuda)
+    bar = tqdm(batches, initial=first, total=train.iterations, desc=f"fit {config.name}", unit="it",
+               disable=not progress, dynamic_ncols=True)
+    for step, batch in enumerate(bar, start=first):
+        lr = one_cycle_lr(step, train.iterations, train.lr)
+        for group in optimizer.param_groups:
+            group["lr"] = lr
+        batch = batch.to(device, non_blocking=cuda)
+        with autocast(device, train.bf16):
+            output = step_model(batch)
+        terms = detection_loss(output.float(), batch.targets, config.loss)
+        optimizer.zero_grad(set_to_none=True)
+        terms.total.backward()
+        torch.nn.utils.clip_grad_norm_(model.parameters(), train.grad_clip)
+        optimizer.step()
+        done = step + 1
+        if done % train.log_every == 0 or done == train.iterations:
+            values = terms.as_floats()
+            losses.append((done, values["loss"]))
+            seconds = time.perf_counter() - start
+            log.append({"iteration": done, "seconds": f"{seconds:.2f}",
+                        "samples_per_s": f"{(done - first) * train.batch_size / (seconds - val_s):.3f}",
+                        "lr": f"{lr:.6g}", **{k: f"{v:.5f}" for k, v in values.items()}})
+            bar.set_postfix(loss=f"{values['loss']:.3f}", cls=f"{values['loss_cls']:.3f}")
+        if train.eval_every and (done % train.eval_every == 0 or done == train.iterations):
+            curve.append(_val_point(model, config, dataset, device, done))
+            val_s += curve[-1].eval_s
+            write_curve(out, curve, losses, f"{config.name}: AP on val while training")
+            bar.set_postfix(loss=f"{terms.as_floats()['loss']:.3f}", ap3d=f"{mean_ap(curve[-1].rows, '3d'):.1f}")
+        out_of_time = stop_after_s is not None and time.perf_counter() - start >= stop_after_s
+        if done == last or out_of_time:
+            break
+        if done % train.checkpoint_every == 0:
+            save(done)
     seconds = time.perf_counter() - start - val_s
     return FitResult(save(done), done, (done - first) * train.batch_size / max(seconds, 1e-9), done < train.iterations)

@@ -17,6 +17,7 @@ import torch
 from numpy.typing import NDArray
 
 import simgen.datasets
+from simgen.atomic import atomic_path
 from train.config import TRACKLET_FRAMES, DetectorConfig
 from train.data import Sample
 from train.detector.inference import predict
@@ -107,7 +108,8 @@ def visible_objects(dataset: simgen.datasets.Dataset, samples: list[Sample]) -> 
 
 
 def write_ap_csv(path: Path, rows: list[ApRow], extra: dict[str, str]) -> None:
-    with open(path, "w", newline="") as out:
+    """The rows as CSV, each with the `extra` columns first; written atomically."""
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as out:
         writer = csv.writer(out)
         writer.writerow([*extra, "truth_set", "box", "iou", "threshold", "recall_points", "ap", "truth", "detections"])
         for r in rows:

@@ -1,10 +1,12 @@
 """`simgen-train study`: one scenario -> its dataset -> the paper's Table 1 (detection AP) and Table 2 (tracking).
 
 1. The dataset: `DATASETS/<scenario name>` is reused when its manifest holds the same resolved
-   scenario, else made by `simgen generate` in a subprocess (the public interface).
+   scenario, else made by `simgen generate` in a subprocess (the public interface), which dies with
+   the study (train.parent_death).
 2. Table 1: each model asked for (`late` always) is trained on the `train` clips (train.fit), or
    reused from `OUT/<model>/` when that checkpoint has the same data and a config that gives the same
-   weights (inference settings may differ: train.config.same_weights), and its boxes at t
+   weights (inference settings may differ: train.config.same_weights), else trained again there (the
+   earlier run replaced), and its boxes at t
    are scored on the `val` clips (train.evaluation.ap_table: AP in BEV and 3D, IoU 0.5).
 3. Table 2: the `late` model's tracklets are filtered for tracking (train.study.tracklet_filter: a score
    threshold and a tight NMS, chosen for each tracker by its own sAMOTA on the `train` clips, the filters
@@ -20,7 +22,9 @@ point range, on every frame with two before it (the first frame a tracklet can d
 
 from __future__ import annotations
 
+import functools
 import json
+import os
 import subprocess
 import sys
 import time
@@ -50,6 +54,7 @@ from train.evaluation.tracker_modules import ClosePairs, ModuleCounts, close_pai
 from train.evaluation.tracking import TrackingMetrics, evaluate_tracking
 from train.evaluation.truth import TruthIds
 from train.fit import CHECKPOINT_NAME, fit
+from train.parent_death import die_with_parent
 from train.study.tracklet_filter import FilterScore, TrackletFilter, apply_filter, choose_filters
 from train.tracking.clip import make_tracker, track_clip
 from train.tracking.config import TrackerConfig, load_tracker_configs
@@ -163,7 +168,8 @@ def prepare_dataset(scenario_path: Path, scenario: Scenario, datasets: Path, pro
         command = [sys.executable, "-m", "simgen.cli", "generate", str(scenario_path), "-o", str(root)]
         command += ["--resume"] if (root / GENERATE_STATE).is_file() else []
         quiet = None if progress else subprocess.PIPE
-        done = subprocess.run(command, stdout=quiet, stderr=quiet, text=True)
+        done = subprocess.run(command, stdout=quiet, stderr=quiet, text=True,
+                              preexec_fn=functools.partial(die_with_parent, os.getpid()))
         if done.returncode:
             said = (done.stderr or "").strip().splitlines()[-1:]
             raise UserError(
@@ -231,7 +237,7 @@ def trained_model(
         reused = same_weights(checkpoint.config, config) and checkpoint.iteration == config.train.iterations
     if not reused:
         marker.unlink(missing_ok=True)
-        fit(config, str(dataset.path), run, options.device, options.progress)
+        fit(config, str(dataset.path), run, options.device, options.progress, overwrite=True)
         with atomic_path(marker) as tmp:
             tmp.write_text(json.dumps(_trained_on(dataset), sort_keys=True))
         checkpoint = load_checkpoint(path)
