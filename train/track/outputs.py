@@ -35,7 +35,6 @@ from simgen.datasets.ros2_bag import (
     pose_message,
     vector_message,
 )
-from simgen.view.trajectories import id_colour
 from train.evaluation.kitti import kitti_lines
 from train.tracking.types import DYING, STATES, TrackedFrame
 
@@ -66,6 +65,8 @@ TRACKS_SCHEMA = pa.schema([
 
 def track_markers(tracked: TrackedFrame, trails: dict[int, deque], stamp_ns: int):
     """The MarkerArray of one frame's tracks; `trails` (track id -> recent centres) is updated."""
+    from simgen.view.trajectories import id_colour  # the drawing stack (numba) only when a bag is written
+
     header = header_message(stamp_ns)
     markers = [marker_message(header, "tracks", 0, 0, 3)]
     states = tracked.states if tracked.states is not None else np.zeros(len(tracked.ids), np.int8)
