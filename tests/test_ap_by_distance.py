@@ -90,13 +90,16 @@ def test_one_bin_over_everything_is_the_plain_ap():
     assert 0.0 < whole[(0.0, "3d")].ap < 100.0
 
 
-def test_median_points_are_of_the_boxes_at_t_in_the_bin():
+def test_points_columns_are_of_the_boxes_at_t_in_the_bin():
     truth = np.stack([player(0.0, -30.0), player(0.0, -31.0), player(0.0, -10.0)])
     results = [(sample(truth), found(truth, [0.9, 0.8, 0.7]))]
-    points = [np.array([[0, 0, 4], [9, 9, 6], [1, 1, 2]])]  # t-2, t-1, t per object
+    points = [np.array([[0, 0, 4], [9, 9, 0], [1, 0, 0]])]  # t-2, t-1, t per object
     by_bin = rows_of(ap_by_distance(results, SENSOR, 10.0, points))
-    assert by_bin[(0.0, "3d")].median_points == 5.0 and by_bin[(20.0, "3d")].median_points == 2.0
-    assert np.isnan(rows_of(ap_by_distance(results, SENSOR, 10.0))[(0.0, "3d")].median_points)
+    near, far = by_bin[(0.0, "3d")], by_bin[(20.0, "3d")]
+    assert (near.median_points, near.seen_t, near.seen_window) == (2.0, 0.5, 1.0)
+    assert (far.median_points, far.seen_t, far.seen_window) == (0.0, 0.0, 1.0)
+    bare = rows_of(ap_by_distance(results, SENSOR, 10.0))[(0.0, "3d")]
+    assert np.isnan([bare.median_points, bare.seen_t, bare.seen_window]).all()
 
 
 def test_unmatched_detections_marked_ignore_unmatched_leave_the_ranking():

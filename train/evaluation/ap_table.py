@@ -137,6 +137,8 @@ class DistanceRow:
     truth: int  # labelled boxes in the bin
     detections: int  # detections whose own centre is in the bin
     median_points: float  # points on a labelled box of the bin in its frame t; NaN where not given
+    seen_t: float  # share of the bin's labelled boxes with a point at t; NaN where not given
+    seen_window: float  # share with a point in t-2..t (the visible ones); NaN where not given
 
 
 def ap_by_distance(
@@ -152,27 +154,29 @@ def ap_by_distance(
     a false positive only where its own centre is in the bin (KITTI's rule for difficulty levels). So each
     labelled box counts in exactly one bin, and a detection whose centre crossed a bin edge from its box's
     still counts for that box. Bins from 0 m to the farthest labelled box; bins with no labelled box are left
-    out (AP is undefined there). `points`: per sample, (G, 3) from `object_points`, for `median_points`.
+    out (AP is undefined there). `points`: per sample, (G, 3) from `object_points`, for the points columns.
     """
     at = TRACKLET_FRAMES - 1
     truth = [s.boxes[s.box_mask[:, at], at] for s, _ in results]
     base = [FrameBoxes(d.boxes[:, -1], d.scores, g) for (_, d), g in zip(results, truth)]
     truth_bin = [np.floor(sensor_distance_m(g, sensors_xy) / bin_m).astype(np.int64) for g in truth]
     found_bin = [np.floor(sensor_distance_m(f.boxes, sensors_xy) / bin_m).astype(np.int64) for f in base]
-    counts = (np.concatenate([p[s.box_mask[:, at], at] for p, (s, _) in zip(points, results)])
-              if points is not None and results else None)
+    counts = (np.concatenate([p[s.box_mask[:, at]] for p, (s, _) in zip(points, results)])
+              if points is not None and results else None)  # (all boxes at t, 3)
     all_bins = np.concatenate(truth_bin) if truth_bin else np.zeros(0, np.int64)
     similarity = {kind: similarities(base, kind) for kind in ("bev", "3d")}
     rows = []
     for k in np.unique(all_bins).tolist():
         frames = [replace(f, ignore=tb != k, ignore_unmatched=fb != k) for f, tb, fb in zip(base, truth_bin, found_bin)]
-        median = float(np.median(counts[all_bins == k])) if counts is not None else float("nan")
+        inside = None if counts is None else counts[all_bins == k]
+        median, seen_t, seen_window = (float("nan"),) * 3 if inside is None else (
+            float(np.median(inside[:, -1])), float(np.mean(inside[:, -1] > 0)), float(np.mean(inside.sum(axis=1) > 0)))
         truth_count = int(np.count_nonzero(all_bins == k))
         found = sum(int(np.count_nonzero(fb == k)) for fb in found_bin)
         for kind in ("bev", "3d"):
             aps = detection_aps(frames, kind, IOU_THRESHOLD, RECALL_POINTS, similarity[kind])
-            rows += [DistanceRow(k * bin_m, (k + 1) * bin_m, kind, n, ap, truth_count, found, median)
-                     for n, ap in zip(RECALL_POINTS, aps)]
+            rows += [DistanceRow(k * bin_m, (k + 1) * bin_m, kind, n, ap, truth_count, found, median, seen_t,
+                                 seen_window) for n, ap in zip(RECALL_POINTS, aps)]
     return rows
 
 
@@ -191,20 +195,23 @@ def write_distance_csv(path: Path, rows: list[DistanceRow], extra: dict[str, str
     with atomic_path(path) as tmp, open(tmp, "w", newline="") as out:
         writer = csv.writer(out)
         writer.writerow([*extra, "low_m", "high_m", "iou", "threshold", "recall_points", "ap", "truth", "detections",
-                         "median_points"])
+                         "median_points", "seen_t", "seen_window"])
         for r in rows:
             writer.writerow([*extra.values(), f"{r.low_m:g}", f"{r.high_m:g}", r.iou, IOU_THRESHOLD, r.recall_points,
-                             f"{r.ap:.2f}", r.truth, r.detections, f"{r.median_points:g}"])
+                             f"{r.ap:.2f}", r.truth, r.detections, f"{r.median_points:g}", f"{r.seen_t:.3f}",
+                             f"{r.seen_window:.3f}"])
 
 
 def format_distance_table(rows: list[DistanceRow]) -> str:
-    """One line per bin: 3D and BEV AP R40, the labelled boxes, the detections, the median points per box."""
-    lines = ["distance from the sensor   3D AP@R40  BEV AP@R40  truth  detections  median points"]
+    """One line per bin: 3D and BEV AP R40, the labelled boxes, the detections, the median points per box at t and
+    the share of boxes with a point at t and in t-2..t."""
+    lines = ["distance from the sensor   3D AP@R40  BEV AP@R40  truth  detections  median points  seen t  seen t-2..t"]
     r40 = {(r.low_m, r.iou): r for r in rows if r.recall_points == 40}
     for low, high in sorted({(r.low_m, r.high_m) for r in rows}):
         three, bev = r40[(low, "3d")], r40[(low, "bev")]
         lines.append(f"{f'{low:g}-{high:g} m':<26} {three.ap:9.2f}  {bev.ap:10.2f}  {three.truth:5d}  "
-                     f"{three.detections:10d}  {three.median_points:13g}")
+                     f"{three.detections:10d}  {three.median_points:13g}  {three.seen_t:6.1%}  "
+                     f"{three.seen_window:11.1%}")
     if any(r.truth < MEANINGFUL_TRUTH for r in rows):
         lines.append(f"note: bins of fewer than {MEANINGFUL_TRUTH} labelled boxes give coarse AP")
     return "\n".join(lines)
