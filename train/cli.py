@@ -438,6 +438,13 @@ def build_parser() -> argparse.ArgumentParser:
                    "long and stop (then --resume): a long fit as several commands under a time limit")
     p.set_defaults(func=_fit)
 
+    def tracklet_inputs(p: argparse.ArgumentParser, output: str) -> None:
+        p.add_argument("tracklets", nargs="+", help="tracklet .npz files, one per clip")
+        p.add_argument("--dataset", required=True, help="the dataset the tracklets were detected on (its labels)")
+        p.add_argument("--config", required=True, help="the detector config that made them: its classes and point "
+                       "range select the labelled boxes, as in the study")
+        p.add_argument("-o", "--output", required=True, help=output)
+
     def by_distance(p: argparse.ArgumentParser) -> None:
         p.add_argument("--by-distance", nargs="?", const=DISTANCE_BIN_M, metavar="M",
                        type=_bounded("a number of metres", 0.0, 1000.0, " m", above_low=True),
@@ -461,11 +468,7 @@ def build_parser() -> argparse.ArgumentParser:
                        "the dataset's labels as `simgen-train eval` scores a checkpoint: every frame t with two "
                        "before it, the labelled boxes of the config's classes whose centre at t is in its point "
                        "range; AP at t, t-1 and t-2 on all boxes and on the visible ones.")
-    p.add_argument("tracklets", nargs="+", help="tracklet .npz files, one per clip")
-    p.add_argument("--dataset", required=True, help="the dataset the tracklets were detected on (its labels)")
-    p.add_argument("--config", required=True, help="the detector config that made them: its classes and point range "
-                   "select the labelled boxes")
-    p.add_argument("-o", "--output", required=True, help="output folder (created)")
+    tracklet_inputs(p, "output folder (created): ap.csv, with --by-distance ap_by_distance.csv")
     by_distance(p)
     p.set_defaults(func=_score)
 
@@ -543,11 +546,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("table2", help="Table 2 of tracklet files already written (`detect`, a study's "
                        "late/tracklets/): every tracker on them, scored against the dataset's labels, into OUT")
-    p.add_argument("tracklets", nargs="+", help="tracklet .npz files, one per clip")
-    p.add_argument("--dataset", required=True, help="the dataset the tracklets were detected on (its labels)")
-    p.add_argument("--config", required=True, help="the detector config that made them: its classes and point range "
-                   "select the labelled boxes, as in the study")
-    p.add_argument("-o", "--output", required=True, help="output folder (created): table2.md and table2.csv")
+    tracklet_inputs(p, "output folder (created): table2.md and table2.csv")
     p.add_argument("--choose-on", nargs="+", metavar="TRACKLETS", help="tracklet files of other clips (e.g. the "
                    "train clips') on which each tracker's filter is chosen, as the study does; default: the tracked "
                    "files themselves, an optimistic choice that the table states")
