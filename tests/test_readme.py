@@ -37,6 +37,7 @@ ELSEWHERE = {
     "simgen-train fit": "tests/test_train_cli.py (tiny config, 2 iterations)",
     "simgen-train eval": "tests/test_train_cli.py",
     "simgen-train detect": "tests/test_train_cli.py",
+    "simgen-train score": "tests/test_train_cli.py (the tracklets of detect)",
     "simgen-train study": "tests/test_study.py (tiny configs and scenario, 2 iterations)",
     "simgen-train table2": "tests/test_study.py (a tiny study's tracklets)",
     "simgen-train track": "tests/test_track.py (tiny paper_x1, tiny model)",

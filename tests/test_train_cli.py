@@ -1,4 +1,4 @@
-"""`simgen-train fit | eval | detect` end to end on a small real dataset, and its one-line errors."""
+"""`simgen-train fit | eval | detect | score` end to end on a small real dataset, and its one-line errors."""
 
 import csv
 import subprocess
@@ -116,6 +116,32 @@ def test_detect_writes_tracklets_and_kitti_labels(trained, tmp_path, capsys):
 
 
 @pytest.mark.engine
+def test_score_of_detects_tracklets_is_evals_ap_with_distance_bins(trained, tmp_path, capsys):
+    """`score` of the tracklet files `detect` wrote reads the same AP as `eval` of the checkpoint, by distance too."""
+    dataset, run = trained
+    checkpoint = run / "checkpoint.pt"
+    for command in ("eval", "detect"):
+        code, err = call_train(capsys, command, checkpoint, "--dataset", dataset, "-o", tmp_path / command, "--split",
+                               "all", "--quiet", *(["--by-distance", 20] if command == "eval" else []))
+        assert code == 0, err
+    tracklets = sorted((tmp_path / "detect" / "tracklets").iterdir())
+    code, err = call_train(capsys, "score", *tracklets, "--dataset", dataset, "--config", run / "tiny.yaml", "-o",
+                           tmp_path / "score", "--by-distance", 20)
+    assert code == 0, err
+
+    def table(folder, name, extra):
+        return [r[extra:] for r in csv.reader(open(tmp_path / folder / name))][1:]
+
+    assert table("score", "ap.csv", 2) == table("eval", "ap.csv", 3)
+    assert table("score", "ap_by_distance.csv", 2) == table("eval", "ap_by_distance.csv", 3)
+    bins = list(csv.DictReader(open(tmp_path / "score" / "ap_by_distance.csv")))
+    assert {float(r["high_m"]) - float(r["low_m"]) for r in bins} == {20.0}
+    total = next(r for r in csv.DictReader(open(tmp_path / "score" / "ap.csv"))
+                 if (r["truth_set"], r["box"], r["iou"], r["recall_points"]) == ("all", "t", "3d", "40"))
+    assert sum(int(r["truth"]) for r in bins if (r["iou"], r["recall_points"]) == ("3d", "40")) == int(total["truth"])
+
+
+@pytest.mark.engine
 @pytest.mark.parametrize(
     "args, message",
     [
@@ -124,6 +150,8 @@ def test_detect_writes_tracklets_and_kitti_labels(trained, tmp_path, capsys):
         (("eval", "{tmp}/garbage.pt", "--dataset", "{dataset}", "-o", "{tmp}"), "not a simgen-train checkpoint"),
         (("eval", "{run}/checkpoint.pt", "--dataset", "{dataset}", "-o", "{tmp}"), "no clips in the 'val' split"),
         (("detect", "{tmp}/none.pt", "--dataset", "{dataset}", "-o", "{tmp}"), "no such checkpoint file"),
+        (("score", "{tmp}/garbage.pt", "--dataset", "{dataset}", "--config", "train/configs/late.yaml", "-o",
+          "{tmp}/out"), "not a tracklet file"),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(trained, tmp_path, capsys, args, message):
@@ -134,9 +162,11 @@ def test_bad_input_is_one_line_and_exit_2(trained, tmp_path, capsys, args, messa
     assert err.count("\n") == 1 and message in err, err
 
 
-def test_usage_errors_are_one_line(capsys):
+@pytest.mark.parametrize("args", [["fit"], ["score", "t.npz", "--dataset", "d", "--config", "c", "-o", "o",
+                                            "--by-distance", "0"]])
+def test_usage_errors_are_one_line(capsys, args):
     with pytest.raises(SystemExit) as exit_:
-        main(["fit"])
+        main(args)
     assert exit_.value.code == 2 and capsys.readouterr().err.count("\n") == 1
 
 

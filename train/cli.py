@@ -1,5 +1,5 @@
-"""`simgen-train fit | eval | detect | track | study | table2`: the paper's PointPillars tracklet detector on simgen
-datasets.
+"""`simgen-train fit | eval | detect | score | track | study | table2`: the paper's PointPillars tracklet detector
+on simgen datasets.
 
 Datasets are read only through simgen.datasets. Bad input (a missing dataset or config, a file
 that is not our checkpoint, an option out of range, a model that would not fit in the device's
@@ -28,7 +28,16 @@ from train.checkpoint import load_checkpoint
 from train.config import MAX_ITERATIONS, MAX_SEED, MAX_WORKERS, DetectorConfig, load_config, parse_config
 from train.detector.inference import detect
 from train.detector.model import Detector
-from train.evaluation.ap_table import evaluate, format_ap_table, write_ap_csv
+from train.evaluation.ap_table import (
+    DISTANCE_BIN_M,
+    EvalResult,
+    evaluate,
+    format_ap_table,
+    format_distance_table,
+    score,
+    write_ap_csv,
+    write_distance_csv,
+)
 from train.fit import fit
 from train.preflight import (
     check_memory,
@@ -54,6 +63,7 @@ from train.study.run import (
     split_window_pairs,
     track,
     tracklet_clip_set,
+    tracklet_results,
 )
 from train.study.seeds import write_seed_tables
 from train.study.tracklet_filter import TrackletFilter, read_filters
@@ -165,14 +175,36 @@ def _fit(args: argparse.Namespace) -> int:
     return 0
 
 
+def _write_scores(out: Path, result: EvalResult, extra: dict[str, str]) -> None:
+    """ap.csv and, with a distance bin, ap_by_distance.csv; both tables printed."""
+    out.mkdir(parents=True, exist_ok=True)
+    write_ap_csv(out / "ap.csv", result.rows, extra)
+    print(format_ap_table(result.rows))
+    if result.distance is not None:
+        write_distance_csv(out / "ap_by_distance.csv", result.distance, extra)
+        print(format_distance_table(result.distance))
+        print(f"{out / 'ap_by_distance.csv'}")
+
+
 def _eval(args: argparse.Namespace) -> int:
     out, dataset, device = _output(args.output, args.dataset), _dataset(args.dataset), _device(args.device)
     model, config, iteration = _model(args.checkpoint, dataset, device)
-    result = evaluate(model, config, args.dataset, _split(args.split), device, not args.quiet)
-    out.mkdir(parents=True, exist_ok=True)
-    write_ap_csv(out / "ap.csv", result.rows, {"model": config.name, "iteration": str(iteration), "split": args.split})
-    print(format_ap_table(result.rows))
+    result = evaluate(model, config, args.dataset, _split(args.split), device, not args.quiet, args.by_distance)
+    _write_scores(out, result, {"model": config.name, "iteration": str(iteration), "split": args.split})
     print(f"{out / 'ap.csv'}: {config.name} at iteration {iteration}, {result.frames_per_s:.2f} frames/s")
+    return 0
+
+
+def _score(args: argparse.Namespace) -> int:
+    out, config = _output(args.output, args.dataset), load_config(args.config)
+    _dataset(args.dataset)
+    start = time.perf_counter()
+    results = tracklet_results([Path(p) for p in args.tracklets], Path(args.dataset), config)
+    result = score(results, args.dataset, args.by_distance, start)
+    clips = sorted({s.clip for s, _ in results})
+    _write_scores(out, result, {"model": config.name, "clips": " ".join(clips)})
+    print(f"{out / 'ap.csv'}: {config.name}'s tracklets of {len(clips)} clip{'' if len(clips) == 1 else 's'}, "
+          f"{len(results)} frames")
     return 0
 
 
@@ -406,13 +438,39 @@ def build_parser() -> argparse.ArgumentParser:
                    "long and stop (then --resume): a long fit as several commands under a time limit")
     p.set_defaults(func=_fit)
 
+    def tracklet_inputs(p: argparse.ArgumentParser, output: str) -> None:
+        p.add_argument("tracklets", nargs="+", help="tracklet .npz files, one per clip")
+        p.add_argument("--dataset", required=True, help="the dataset the tracklets were detected on (its labels)")
+        p.add_argument("--config", required=True, help="the detector config that made them: its classes and point "
+                       "range select the labelled boxes, as in the study")
+        p.add_argument("-o", "--output", required=True, help=output)
+
+    def by_distance(p: argparse.ArgumentParser) -> None:
+        p.add_argument("--by-distance", nargs="?", const=DISTANCE_BIN_M, metavar="M",
+                       type=_bounded("a number of metres", 0.0, 1000.0, " m", above_low=True),
+                       help="also AP by distance from the dataset's sensor into ap_by_distance.csv: the boxes at t "
+                       f"in bins of M metres (default {DISTANCE_BIN_M:g}) of their centre's pitch-plane distance "
+                       "from the nearest sensor; in each bin, labelled boxes outside it are ignored and a detection "
+                       "that matches no counted box is a false positive only if its own centre is in the bin")
+
     for name, func, text in (("eval", _eval, "detection AP (BEV, 3D; IoU 0.5; R40 and R11) into ap.csv"),
                              ("detect", _detect, "tracklet files and KITTI labels per frame")):
         p = sub.add_parser(name, help=text)
         p.add_argument("checkpoint", help="checkpoint.pt written by `simgen-train fit`")
         common(p)
         p.add_argument("--split", choices=SPLITS, default="val", help="clips to run on (default: val)")
+        if name == "eval":
+            by_distance(p)
         p.set_defaults(func=func)
+
+    p = sub.add_parser("score", help="detection AP of tracklet files already written (`detect`), as eval's, into "
+                       "ap.csv", description="Score tracklet files of `simgen-train detect` (or a study's) against "
+                       "the dataset's labels as `simgen-train eval` scores a checkpoint: every frame t with two "
+                       "before it, the labelled boxes of the config's classes whose centre at t is in its point "
+                       "range; AP at t, t-1 and t-2 on all boxes and on the visible ones.")
+    tracklet_inputs(p, "output folder (created): ap.csv, with --by-distance ap_by_distance.csv")
+    by_distance(p)
+    p.set_defaults(func=_score)
 
     p = sub.add_parser("track", help="track players: detections from a checkpoint, tracklet files or KITTI files "
                        "-> the paper's tracker -> KITTI tracking results, a tracks table, MCAP bags and metrics",
@@ -488,11 +546,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("table2", help="Table 2 of tracklet files already written (`detect`, a study's "
                        "late/tracklets/): every tracker on them, scored against the dataset's labels, into OUT")
-    p.add_argument("tracklets", nargs="+", help="tracklet .npz files, one per clip")
-    p.add_argument("--dataset", required=True, help="the dataset the tracklets were detected on (its labels)")
-    p.add_argument("--config", required=True, help="the detector config that made them: its classes and point range "
-                   "select the labelled boxes, as in the study")
-    p.add_argument("-o", "--output", required=True, help="output folder (created): table2.md and table2.csv")
+    tracklet_inputs(p, "output folder (created): table2.md and table2.csv")
     p.add_argument("--choose-on", nargs="+", metavar="TRACKLETS", help="tracklet files of other clips (e.g. the "
                    "train clips') on which each tracker's filter is chosen, as the study does; default: the tracked "
                    "files themselves, an optimistic choice that the table states")

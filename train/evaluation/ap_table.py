@@ -2,14 +2,15 @@
 
 AP rows: each box of the tracklet (t, t-1, t-2), IoU 0.5 in BEV and 3D and pitch-plane centre
 distance within 0.25, 0.5 and 1 m, R40 and R11, on all labelled boxes and on the *visible* ones
-(at least one point in t-2..t; the others are ignored: a detection on one counts neither way).
+(at least one point in t-2..t; the others are ignored: a detection on one counts neither way). By distance
+(`ap_by_distance`): BEV and 3D AP of the boxes at t per 10 m bin of distance from the dataset's sensor.
 """
 
 from __future__ import annotations
 
 import csv
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +30,7 @@ IOU_THRESHOLD = 0.5
 CENTRE_THRESHOLDS_M = (0.25, 0.5, 1.0)
 TRUTH_SETS = ("all", "visible")
 MEANINGFUL_TRUTH = 40  # fewer ground-truth boxes make AP coarse
+DISTANCE_BIN_M = 10.0  # bins of distance from the sensor (ap_by_distance)
 
 
 @dataclass(frozen=True)
@@ -92,19 +94,90 @@ def _frame_points(dataset: simgen.datasets.Dataset, clip: str, index: int) -> di
     return dict(zip(np.asarray(frame.track_id).tolist(), np.asarray(counts).tolist()))
 
 
-def visible_objects(dataset: simgen.datasets.Dataset, samples: list[Sample]) -> list[NDArray[np.bool_]]:
-    """Per sample, (G,): its objects with at least one point in frames t-2..t."""
+def object_points(dataset: simgen.datasets.Dataset, samples: list[Sample]) -> list[NDArray[np.int64]]:
+    """Per sample, (G, 3): the points on each of its objects in frames t-2, t-1 and t (0 where it has no label)."""
     cache: dict[tuple[str, int], dict[int, int]] = {}
     out = []
     for sample in samples:
-        seen = np.zeros(len(sample.track_id), bool)
-        for index in range(sample.index - TRACKLET_FRAMES + 1, sample.index + 1):
+        counts = np.zeros((len(sample.track_id), TRACKLET_FRAMES), np.int64)
+        for k, index in enumerate(range(sample.index - TRACKLET_FRAMES + 1, sample.index + 1)):
             key = (sample.clip, index)
             if key not in cache:
                 cache[key] = _frame_points(dataset, *key)
-            seen |= np.array([cache[key].get(int(t), 0) > 0 for t in sample.track_id], bool)
-        out.append(seen)
+            counts[:, k] = [cache[key].get(int(t), 0) for t in sample.track_id]
+        out.append(counts)
     return out
+
+
+def visible_objects(dataset: simgen.datasets.Dataset, samples: list[Sample]) -> list[NDArray[np.bool_]]:
+    """Per sample, (G,): its objects with at least one point in frames t-2..t."""
+    return [counts.sum(axis=1) > 0 for counts in object_points(dataset, samples)]
+
+
+def sensor_positions(dataset: simgen.datasets.Dataset) -> NDArray[np.float64]:
+    """(S, 2) the x, y of each of the dataset's sensors (its manifest), pitch frame, metres."""
+    return np.array([sensor.origin_m[:2] for sensor in dataset.manifest.sensors], np.float64).reshape(-1, 2)
+
+
+def sensor_distance_m(boxes: NDArray[np.float32], sensors_xy: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(N,) pitch-plane distance of each box's centre (N, 7) from the nearest sensor (S, 2), metres."""
+    offsets = np.asarray(boxes, np.float64).reshape(-1, 7)[:, None, :2] - np.asarray(sensors_xy, np.float64)[None]
+    return np.linalg.norm(offsets, axis=-1).min(axis=1, initial=np.inf)
+
+
+@dataclass(frozen=True)
+class DistanceRow:
+    """AP of the boxes at t in one bin of distance from the sensor, [low_m, high_m)."""
+
+    low_m: float
+    high_m: float
+    iou: str  # "bev" or "3d", IoU >= IOU_THRESHOLD
+    recall_points: int  # 40 or 11
+    ap: float  # percent
+    truth: int  # labelled boxes in the bin
+    detections: int  # detections whose own centre is in the bin
+    median_points: float  # points on a labelled box of the bin in its frame t; NaN where not given
+    seen_t: float  # share of the bin's labelled boxes with a point at t; NaN where not given
+    seen_window: float  # share with a point in t-2..t (the visible ones); NaN where not given
+
+
+def ap_by_distance(
+    results: list[tuple[Sample, Detections]], sensors_xy: NDArray[np.float64], bin_m: float = DISTANCE_BIN_M,
+    points: list[NDArray[np.int64]] | None = None,
+) -> list[DistanceRow]:
+    """BEV and 3D AP (IoU 0.5, R40 and R11) of the boxes at t, per bin of distance from the sensor.
+
+    A box's distance is its centre's pitch-plane distance from the nearest sensor (`sensor_distance_m`); bin k
+    holds the distances in [k bin_m, (k + 1) bin_m). Each bin is scored over every frame with all detections
+    and labelled boxes matched as everywhere (train.evaluation.detection): the labelled boxes outside the bin
+    are ignored (a detection matched to one counts neither way) and a detection that matches no counted box is
+    a false positive only where its own centre is in the bin (KITTI's rule for difficulty levels). So each
+    labelled box counts in exactly one bin, and a detection whose centre crossed a bin edge from its box's
+    still counts for that box. Bins from 0 m to the farthest labelled box; bins with no labelled box are left
+    out (AP is undefined there). `points`: per sample, (G, 3) from `object_points`, for the points columns.
+    """
+    at = TRACKLET_FRAMES - 1
+    truth = [s.boxes[s.box_mask[:, at], at] for s, _ in results]
+    base = [FrameBoxes(d.boxes[:, -1], d.scores, g) for (_, d), g in zip(results, truth)]
+    truth_bin = [np.floor(sensor_distance_m(g, sensors_xy) / bin_m).astype(np.int64) for g in truth]
+    found_bin = [np.floor(sensor_distance_m(f.boxes, sensors_xy) / bin_m).astype(np.int64) for f in base]
+    counts = (np.concatenate([p[s.box_mask[:, at]] for p, (s, _) in zip(points, results)])
+              if points is not None and results else None)  # (all boxes at t, 3)
+    all_bins = np.concatenate(truth_bin) if truth_bin else np.zeros(0, np.int64)
+    similarity = {kind: similarities(base, kind) for kind in ("bev", "3d")}
+    rows = []
+    for k in np.unique(all_bins).tolist():
+        frames = [replace(f, ignore=tb != k, ignore_unmatched=fb != k) for f, tb, fb in zip(base, truth_bin, found_bin)]
+        inside = None if counts is None else counts[all_bins == k]
+        median, seen_t, seen_window = (float("nan"),) * 3 if inside is None else (
+            float(np.median(inside[:, -1])), float(np.mean(inside[:, -1] > 0)), float(np.mean(inside.sum(axis=1) > 0)))
+        truth_count = int(np.count_nonzero(all_bins == k))
+        found = sum(int(np.count_nonzero(fb == k)) for fb in found_bin)
+        for kind in ("bev", "3d"):
+            aps = detection_aps(frames, kind, IOU_THRESHOLD, RECALL_POINTS, similarity[kind])
+            rows += [DistanceRow(k * bin_m, (k + 1) * bin_m, kind, n, ap, truth_count, found, median, seen_t,
+                                 seen_window) for n, ap in zip(RECALL_POINTS, aps)]
+    return rows
 
 
 def write_ap_csv(path: Path, rows: list[ApRow], extra: dict[str, str]) -> None:
@@ -115,6 +188,33 @@ def write_ap_csv(path: Path, rows: list[ApRow], extra: dict[str, str]) -> None:
         for r in rows:
             writer.writerow([*extra.values(), r.truth_set, r.box, r.iou, r.threshold, r.recall_points, f"{r.ap:.2f}",
                              r.truth, r.detections])
+
+
+def write_distance_csv(path: Path, rows: list[DistanceRow], extra: dict[str, str]) -> None:
+    """`ap_by_distance`'s rows as CSV, each with the `extra` columns first; written atomically."""
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as out:
+        writer = csv.writer(out)
+        writer.writerow([*extra, "low_m", "high_m", "iou", "threshold", "recall_points", "ap", "truth", "detections",
+                         "median_points", "seen_t", "seen_window"])
+        for r in rows:
+            writer.writerow([*extra.values(), f"{r.low_m:g}", f"{r.high_m:g}", r.iou, IOU_THRESHOLD, r.recall_points,
+                             f"{r.ap:.2f}", r.truth, r.detections, f"{r.median_points:g}", f"{r.seen_t:.3f}",
+                             f"{r.seen_window:.3f}"])
+
+
+def format_distance_table(rows: list[DistanceRow]) -> str:
+    """One line per bin: 3D and BEV AP R40, the labelled boxes, the detections, the median points per box at t and
+    the share of boxes with a point at t and in t-2..t."""
+    lines = ["distance from the sensor   3D AP@R40  BEV AP@R40  truth  detections  median points  seen t  seen t-2..t"]
+    r40 = {(r.low_m, r.iou): r for r in rows if r.recall_points == 40}
+    for low, high in sorted({(r.low_m, r.high_m) for r in rows}):
+        three, bev = r40[(low, "3d")], r40[(low, "bev")]
+        lines.append(f"{f'{low:g}-{high:g} m':<26} {three.ap:9.2f}  {bev.ap:10.2f}  {three.truth:5d}  "
+                     f"{three.detections:10d}  {three.median_points:13g}  {three.seen_t:6.1%}  "
+                     f"{three.seen_window:11.1%}")
+    if any(r.truth < MEANINGFUL_TRUTH for r in rows):
+        lines.append(f"note: bins of fewer than {MEANINGFUL_TRUTH} labelled boxes give coarse AP")
+    return "\n".join(lines)
 
 
 def format_ap_table(rows: list[ApRow]) -> str:
@@ -134,15 +234,25 @@ def format_ap_table(rows: list[ApRow]) -> str:
 @dataclass(frozen=True)
 class EvalResult:
     rows: list[ApRow]
-    frames_per_s: float  # inference, loading included
+    frames_per_s: float  # inference (none for tracklet files), loading included
+    distance: list[DistanceRow] | None = None  # given a bin width
+
+
+def score(results: list[tuple[Sample, Detections]], dataset: str, by_distance_m: float | None,
+          start: float) -> EvalResult:
+    """The AP rows of detections on samples of `dataset` and, given a bin width in metres, AP by distance from its
+    sensor; `start`: the `time.perf_counter()` at which reading began."""
+    data = simgen.datasets.open(dataset)
+    points = object_points(data, [s for s, _ in results])
+    rows = average_precisions(results, [p.sum(axis=1) > 0 for p in points])
+    distance = None if by_distance_m is None else ap_by_distance(results, sensor_positions(data), by_distance_m, points)
+    return EvalResult(rows, len(results) / (time.perf_counter() - start), distance)
 
 
 def evaluate(model: Detector, config: DetectorConfig, dataset: str, split: str | None, device: torch.device,
-             progress: bool = True) -> EvalResult:
+             progress: bool = True, by_distance_m: float | None = None) -> EvalResult:
     start = time.perf_counter()
-    results = list(predict(model, config, dataset, split, device, progress))
-    visible = visible_objects(simgen.datasets.open(dataset), [s for s, _ in results])
-    return EvalResult(average_precisions(results, visible), len(results) / (time.perf_counter() - start))
+    return score(list(predict(model, config, dataset, split, device, progress)), dataset, by_distance_m, start)
 
 
 def measure_name(row: ApRow) -> str:

@@ -53,6 +53,9 @@ class FrameBoxes:
     truth: NDArray[np.float32]  # (G, 7) labelled
     # (G,) labelled boxes that count neither way (a detection on one is dropped)
     ignore: NDArray[np.bool_] | None = None
+    # (N,) detections that count only where they match a counted box (unmatched, they are dropped): KITTI's rule
+    # for the detections outside a difficulty level, here outside a distance bin
+    ignore_unmatched: NDArray[np.bool_] | None = None
 
     @property
     def counted_truth(self) -> int:
@@ -144,9 +147,12 @@ def detection_aps(
 ) -> list[float]:
     """AP in percent over frames at each of `recall_points`, with IoU `iou_kind` ('bev' or '3d') at
     `threshold`, or 'centre' within `threshold` metres; detections on ignored labelled boxes are left
-    out. `similarity`: the frames' `similarities` for `iou_kind`, when the caller has them already."""
+    out, and so are the unmatched ones marked `ignore_unmatched`. `similarity`: the frames' `similarities` for
+    `iou_kind`, when the caller has them already."""
     similarity = similarities(frames, iou_kind) if similarity is None else similarity
     matched = [_match(f, m, _threshold(iou_kind, threshold)) for f, m in zip(frames, similarity)]
+    matched = [(tp, dropped if f.ignore_unmatched is None else dropped | (f.ignore_unmatched & ~tp))
+               for f, (tp, dropped) in zip(frames, matched)]
     if not frames:
         return [average_precision(np.zeros(0, np.float32), np.zeros(0, bool), 0, points) for points in recall_points]
     scores = np.concatenate([f.scores[~dropped] for f, (_, dropped) in zip(frames, matched)])

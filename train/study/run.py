@@ -281,29 +281,33 @@ def truth_frames(samples: list[Sample]) -> list[GroundTruthFrame]:
     return [ids.frame(sample.boxes[:, -1], sample.track_id, sample.placed) for sample in samples]
 
 
-def tracklet_clip_set(paths: list[Path], dataset: Path, config: DetectorConfig) -> ClipSet:
+def tracklet_results(paths: list[Path], dataset: Path, config: DetectorConfig) -> list[tuple[Sample, Detections]]:
     """Tracklet files (train.detector.detections, one per clip) with their clips' ground truth from the dataset,
     as the study scores them: every frame t with two before it, the objects of `config`'s classes whose centre
-    at t is in its point range (train.data.load_sample, crop)."""
+    at t is in its point range (train.data.load_sample, crop); the samples without their points."""
     data = simgen.datasets.open(dataset)
     recent = RecentFrames(data)
-    tracklets: dict[str, ClipTracklets] = {}
-    frames: dict[str, list[int]] = {}
-    truth: dict[str, list[GroundTruthFrame]] = {}
+    results: list[tuple[Sample, Detections]] = []
+    clips: set[str] = set()
     for path in paths:
         found = read_tracklets(path)
         if found.clip not in data.clips:
             raise UserError(f"{path}: its clip {found.clip!r} is not in {dataset}")
-        if found.clip in tracklets:
+        if found.clip in clips:
             raise UserError(f"{path}: a second tracklet file of clip {found.clip!r}")
+        clips.add(found.clip)
         keys = list(range(TRACKLET_FRAMES - 1, data.num_frames(found.clip)))
         outside = np.setdiff1d(found.frame, keys)
         if len(outside):
             raise UserError(f"{path}: frame {outside[0]} is not a frame t of {found.clip!r} (2..{keys[-1]})")
-        samples = [crop(load_sample(recent, found.clip, t, config), config.data.point_range_m) for t in keys]
-        tracklets[found.clip], frames[found.clip] = found, keys
-        truth[found.clip] = truth_frames([replace(s, points=()) for s in samples])
-    return ClipSet(tracklets, frames, truth)
+        results += [(replace(crop(load_sample(recent, found.clip, t, config), config.data.point_range_m), points=()),
+                     Detections(*found.at(t))) for t in keys]
+    return results
+
+
+def tracklet_clip_set(paths: list[Path], dataset: Path, config: DetectorConfig) -> ClipSet:
+    """`tracklet_results` as a ClipSet, for the trackers."""
+    return clip_set(tracklet_results(paths, dataset, config))
 
 
 def detect_split(
