@@ -385,7 +385,7 @@ class BagWriter:
 
     def __init__(self, path: Path, sensors: Sequence[Sensor], layout: PointLayout = SIMGEN_LAYOUT,
                  naming: Naming = Naming()):
-        from rosbags.rosbag2 import StoragePlugin, Writer
+        from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
 
         check_naming(naming, layout, sensors)
         self.sensors = sorted(sensors, key=lambda s: s.sensor_id)
@@ -393,6 +393,7 @@ class BagWriter:
         self.units = lidar_units(self.sensors) if layout.per_unit else sensor_units(self.sensors)
         self.store = livox_msgs.typestore()
         self.bag = Writer(path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+        self.bag.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)  # zstd chunks, as MCAP's own writer
         self.bag.set_custom_data("writer", f"simgen {__version__}")
         self.bag.open()
         self.connections = {}
