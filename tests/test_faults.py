@@ -443,6 +443,18 @@ def test_unpack_names_the_packed_files_not_its_staging_folder(packed, tmp_path):
     assert f"{copy / PACKED_NAME}: not a readable manifest" in err and ".partial" not in err
 
 
+@pytest.mark.parametrize("what", ["points", "boxes"])
+def test_a_file_found_damaged_while_unpacking_is_one_line_after_its_bar(packed, tmp_path, what):
+    """A byte zeroed in a packed table, found once unpack's bar runs (a points page's checksum, a file's sha256):
+    the bar leaves no line of its own, the error names the packed file, and nothing is left."""
+    copy = _copy(packed, tmp_path / "packed")
+    damaged = copy / next(f.path for f in read_manifest(copy, PACKED_NAME).files if f.path.startswith(f"{what}/"))
+    data = bytearray(damaged.read_bytes())
+    data[100] ^= 0xFF
+    damaged.write_bytes(bytes(data))
+    _refused_leaving_all_as_it_was(["unpack", copy, "-o", tmp_path / "out"], [tmp_path], str(damaged))
+
+
 def test_a_bag_holding_more_points_than_its_manifest_lists_is_refused_before_it_is_decompressed(tmp_path):
     """An `mcap` dataset whose bag holds a frame of `BOMB_POINTS` points (a few hundred KB of zstd) while its
     manifest lists 1,000 points for the clip: the chunks' declared sizes give it away before any is expanded."""
