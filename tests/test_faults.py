@@ -455,6 +455,32 @@ def test_a_file_found_damaged_while_unpacking_is_one_line_after_its_bar(packed, 
     _refused_leaving_all_as_it_was(["unpack", copy, "-o", tmp_path / "out"], [tmp_path], str(damaged))
 
 
+def _zstd_chunks(bag: Path) -> None:
+    """Rewrite the MCAP `bag` with zstd-compressed chunks (as `ros2 bag record`'s zstd presets write them; simgen's
+    writer stores its chunks uncompressed): the same schemas, channels, messages and metadata."""
+    from mcap.reader import make_reader
+    from mcap.writer import CompressionType, Writer
+
+    staged = bag.with_suffix(".zstd")
+    with open(bag, "rb") as source, open(staged, "wb") as target:
+        reader, writer = make_reader(source), Writer(target, compression=CompressionType.ZSTD)
+        header = reader.get_header()
+        writer.start(header.profile, header.library)
+        schemas, channels = {}, {}
+        for schema, channel, message in reader.iter_messages(log_time_order=False):
+            if schema is not None and schema.id not in schemas:
+                schemas[schema.id] = writer.register_schema(schema.name, schema.encoding, schema.data)
+            if channel.id not in channels:
+                channels[channel.id] = writer.register_channel(channel.topic, channel.message_encoding,
+                                                               schemas.get(channel.schema_id, 0), channel.metadata)
+            writer.add_message(channels[channel.id], message.log_time, message.data, message.publish_time,
+                               message.sequence)
+        for metadata in reader.iter_metadata():
+            writer.add_metadata(metadata.name, metadata.metadata)
+        writer.finish()
+    staged.replace(bag)
+
+
 def test_a_bag_holding_more_points_than_its_manifest_lists_is_refused_before_it_is_decompressed(tmp_path):
     """An `mcap` dataset whose bag holds a frame of `BOMB_POINTS` points (a few hundred KB of zstd) while its
     manifest lists 1,000 points for the clip: the chunks' declared sizes give it away before any is expanded."""
@@ -462,10 +488,14 @@ def test_a_bag_holding_more_points_than_its_manifest_lists_is_refused_before_it_
     clip = make_clip("clip_0000", 2, points=0, humanoids=0)
     clip[0] = dataclasses.replace(clip[0], scan=_zeros(BOMB_POINTS))
     write_dataset(root, "mcap", [clip])
+    bag = root / "clip_0000" / "clip_0000.mcap"
+    _zstd_chunks(bag)
     manifest = json.loads((root / MANIFEST_NAME).read_text())
     manifest["clips"][0]["points"] = manifest["totals"]["points"] = 1000
+    entry = next(f for f in manifest["files"] if f["path"] == bag.relative_to(root).as_posix())
+    entry["bytes"], entry["sha256"] = bag.stat().st_size, hashlib.sha256(bag.read_bytes()).hexdigest()
     (root / MANIFEST_NAME).write_text(json.dumps(manifest))
-    assert (root / "clip_0000" / "clip_0000.mcap").stat().st_size < 3_000_000
+    assert bag.stat().st_size < 3_000_000
     with pytest.raises(UserError, match=r"chunks declare over .* bytes, more than 1,000 points in 2 frames take"):
         simgen.datasets.open(root).frame("clip_0000", 0)
     code, out, err, peak, _ = measured_process("simgen.cli", "export", root, "-o", tmp_path / "out.mcap")
