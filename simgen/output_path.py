@@ -29,14 +29,19 @@ _KINDS = {
 
 
 def check_output(
-    path: str | Path, kind: Literal["file", "folder"], reads: Iterable[str | Path] = (), new: bool = False
+    path: str | Path,
+    kind: Literal["file", "folder"],
+    reads: Iterable[str | Path] = (),
+    new: bool = False,
+    replaces: bool = False,
 ) -> Path:
     """Refuse, as a one-line `UserError`, an output `path` that would destroy or could not hold what a command writes.
 
     Refused: a dangling link; a device node, FIFO or socket (or a link to one); a folder where a file is
     written (`kind="file"`) or a file where a folder is (`kind="folder"`); anything that exists when `new`;
     a path under /proc or /sys, below a file, or whose nearest existing folder is not writable; a path
-    equal to or inside any of `reads` (the datasets, runs and files the command reads); outside
+    equal to or inside any of `reads` (the datasets, runs and files the command reads), or, when `replaces`, one
+    of `reads` inside `path` (replacing what `path` holds would delete it); outside
     $SIMGEN_OUTPUT_ROOTS when that is set. Folders missing between the nearest existing one and `path`
     are allowed (commands create them).
 
@@ -45,6 +50,7 @@ def check_output(
         kind: what the command writes there: one file, or a folder of files.
         reads: what the command reads (folders or files); the output may not lie in or on one.
         new: the command creates `path` and refuses to replace it (pack, unpack).
+        replaces: the command may delete what `path` holds (generate --overwrite).
     Returns:
         `path` as a `Path`.
     """
@@ -59,6 +65,9 @@ def check_output(
         source = Path(read).resolve()
         if target == source or source in target.parents:
             raise UserError(f"{path}: inside {read}, which this command reads (write elsewhere)")
+        if replaces and target in source.parents:
+            raise UserError(f"{path}: holds {read}, which this command reads; replacing {path} would delete it "
+                            "(move it out)")
     if path.exists():
         mode = path.stat().st_mode
         if stat.S_IFMT(mode) in _KINDS:

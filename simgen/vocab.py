@@ -29,6 +29,8 @@ PITCH_WIDTH_M = 68.0
 TEAM_NAMES = ("left", "right", "official")  # MotionClip.team values: the two teams, then the officials
 ROLE_NAMES = ("GK", "CB", "LB", "RB", "DM", "CM", "LM", "RM", "AM", "CF")  # players' roles in the engine
 OFFICIAL_ROLES = ("referee", "linesman", "linesman")
+PLAYERS_PER_TEAM = 11  # players the engine puts on the pitch per team (`playerNum`, gfootball_engine gamedefines.hpp)
+MAX_HUMANOIDS = 2 * PLAYERS_PER_TEAM + len(OFFICIAL_ROLES)  # on a pitch at once: 25, so at most 25 boxes a frame
 
 PLAYER_CLASS = "Pedestrian"  # KITTI's class for people on foot, as KITTI-trained detectors expect
 OFFICIAL_CLASS = "Official"  # referee and linesmen: people, but not players

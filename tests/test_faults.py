@@ -8,9 +8,12 @@ import dataclasses
 import hashlib
 import json
 import os
+import re
 import shutil
 import socket
 import stat
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -19,9 +22,10 @@ import pytest
 import simgen.datasets
 from simgen.cli import main
 from simgen.datasets.compact import PACKED_NAME, _millimetres
-from simgen.datasets.limits import max_points_per_frame
+from simgen.datasets.limits import MAX_BOXES_PER_FRAME, max_points_per_frame
 from simgen.datasets.manifest import MANIFEST_NAME, read_manifest
 from simgen.errors import UserError
+from simgen.labels.boxes import FrameLabels
 from simgen.qa.integrity import verify_dataset
 from simgen.qa.tolerances import load_tolerances
 from simgen.render.frame import ScanFrame
@@ -153,6 +157,45 @@ def test_outputs_that_cannot_be_written_are_one_line(dataset, packed, tmp_path, 
         _refused_leaving_all_as_it_was(arguments, [tmp_path, dataset, packed], said)
         if where == "dangling-link":
             output.unlink()
+
+
+def _as_a_user_without_write_access(*arguments) -> subprocess.CompletedProcess:
+    """`python -m simgen.cli ARGUMENTS` as a real process that permissions stop: as root (the tests' usual user,
+    whom access(2) lets write anywhere), as user nobody (65534) with no groups, keeping only the right to read and
+    search every folder (CAP_DAC_READ_SEARCH: the interpreter and the test's files lie in root's folders)."""
+    drop = [] if os.geteuid() else [
+        "setpriv", "--reuid=65534", "--regid=65534", "--clear-groups",
+        "--inh-caps=-all,+dac_read_search", "--ambient-caps=+dac_read_search",
+    ]
+    command = [*drop, sys.executable, "-m", "simgen.cli", *map(str, arguments)]
+    return subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=120)
+
+
+def test_a_parent_folder_the_user_cannot_write_is_refused_in_one_line(dataset, tmp_path):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o555)  # root's: nobody (or a non-root owner, without its write bit) may not write in it
+    for arguments in (
+        ["pattern", "mid40-risley", "--seconds", "0.01", "-o", locked / "pattern.npz"],
+        ["export", dataset, "--frames", "0:1", "-o", locked / "out.mcap"],
+        ["view", dataset, "--frames", "0:1", "-o", locked / "views" / "new"],
+        ["pack", dataset, "-o", locked / "packed"],
+    ):
+        done = _as_a_user_without_write_access(*arguments)
+        assert_one_line_refusal(done.returncode, done.stdout, done.stderr, arguments)
+        assert f"{locked} is not a writable folder" in done.stderr, done.stderr
+        assert list(locked.iterdir()) == [], arguments
+
+
+def test_generate_overwrite_refuses_an_output_that_holds_its_scenario(dataset, tmp_path):
+    """--overwrite deletes what the output folder holds: a scenario (or its folder) inside it would go with it."""
+    copy = _copy(dataset, tmp_path / "dataset")
+    (copy / "scenarios").mkdir()
+    for scenario in (copy / "smoke.yaml", copy / "scenarios" / "smoke.yaml"):
+        shutil.copyfile(ROOT / "scenarios" / "smoke.yaml", scenario)
+        arguments = ["generate", scenario, "--frames", "1", "--overwrite", "-o", copy]
+        _refused_leaving_all_as_it_was(arguments, [tmp_path], "replacing")
+        assert f"holds {scenario}, which this command reads" in _simgen(*arguments)[2]
 
 
 # --- 2. pack and unpack follow no link and check every file -----------------------------------------
@@ -320,6 +363,67 @@ def test_unpack_checks_the_declared_sizes_before_expanding(hidden_bomb, tmp_path
     assert sorted(p.name for p in tmp_path.iterdir()) == ["packed"]
 
 
+def test_qa_refuses_a_frame_declaring_too_many_points_before_it_writes_anything(hidden_bomb, tmp_path):
+    """The refusal comes before any report, plot or bar: stderr is its one line, and no folder is left."""
+    (tmp_path / "existing").mkdir()
+    for out in (tmp_path / "new", tmp_path / "existing"):
+        _refused_leaving_all_as_it_was(["qa", hidden_bomb, "--max-frames", "1", "-o", out], [tmp_path, hidden_bomb],
+                                       "frame 0 declares 3,000,000 points")
+
+
+# --- 3. boxes: no more a frame than the humanoids a match has ------------------------------------------
+
+CROWD = 100_000  # boxes in frame 0 of the crafted datasets: 4,000 x the humanoids a match has
+
+
+def _crowd(boxes: int) -> FrameLabels:
+    """`boxes` zero boxes (a few KB of Parquet however many there are), all of the left team."""
+    return FrameLabels(np.zeros((boxes, 7), np.float32), np.arange(1, boxes + 1, dtype=np.int32),
+                       np.full(boxes, "left"), np.full(boxes, "CB"), np.zeros((boxes, 3), np.float32),
+                       np.zeros((boxes, 12, 3), np.float32), np.zeros(boxes, np.int32), np.zeros(boxes, bool))
+
+
+def _crowded(root: Path, format: str, boxes: int, frames: int) -> Path:
+    """A dataset of one clip whose frame 0 holds `boxes` boxes and the other frames none; manifest and files agree."""
+    clip = make_clip("clip_0000", frames, points=0, humanoids=0)
+    clip[0] = dataclasses.replace(clip[0], labels=_crowd(boxes))
+    write_dataset(root, format, [clip])
+    return root
+
+
+def test_a_dataset_declaring_more_boxes_than_humanoids_is_refused_in_bounded_memory(tmp_path):
+    assert MAX_BOXES_PER_FRAME == 25  # 11 players a team (the engine's `playerNum`) and 3 officials
+    root = _crowded(tmp_path / "dataset", "parquet", CROWD, 1)
+    assert sum(p.stat().st_size for p in root.rglob("*") if p.is_file()) < 3_000_000
+    said = "clip clip_0000 declares 100,000 boxes in 1 frame, more than a match has humanoids (at most 25 a frame)"
+    with pytest.raises(UserError, match=re.escape(said)):
+        read_manifest(root)
+    for arguments in (["export", root, "-o", tmp_path / "out.mcap"], ["view", root, "-o", tmp_path / "view"],
+                      ["verify", root]):
+        code, out, err, peak, _ = measured_process("simgen.cli", *arguments)
+        assert_one_line_refusal(code, out, err, arguments)
+        assert said in err and peak < MAX_PROCESS_BYTES, (arguments, err, peak)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dataset"]
+
+
+@pytest.mark.parametrize(
+    ("format", "said"),
+    [
+        ("parquet", "frames/clip_0000/part-0.parquet: frame 0 declares 1,000 boxes in 1 frame"),
+        ("kitti", "label_2/000000.txt: the file declares 1,000 boxes in 1 frame"),
+        ("openpcdet", "labels/000000.txt: the file declares 1,000 boxes in 1 frame"),
+    ],
+)
+def test_a_frame_declaring_more_boxes_than_humanoids_is_refused_before_they_are_read(tmp_path, format, said):
+    """1,000 boxes in frame 0 of 40 frames: the clip's total fits 25 a frame, so only the frame's own count (the
+    `frames` table, the label file's lines) says it holds too many."""
+    boxes = 1000
+    root = _crowded(tmp_path / "dataset", format, boxes, boxes // MAX_BOXES_PER_FRAME)
+    with pytest.raises(UserError, match=re.escape(said)):
+        simgen.datasets.open(root).frame("clip_0000", 0)
+    _refused_leaving_all_as_it_was(["view", root, "--frames", "0:1", "-o", tmp_path / "view"], [tmp_path], said)
+
+
 # --- 7. messages: one short line naming what the user gave ---------------------------------------
 
 
@@ -339,6 +443,44 @@ def test_unpack_names_the_packed_files_not_its_staging_folder(packed, tmp_path):
     assert f"{copy / PACKED_NAME}: not a readable manifest" in err and ".partial" not in err
 
 
+@pytest.mark.parametrize("what", ["points", "boxes"])
+def test_a_file_found_damaged_while_unpacking_is_one_line_after_its_bar(packed, tmp_path, what):
+    """A byte zeroed in a packed table, found once unpack's bar runs (a points page's checksum, a file's sha256):
+    the bar leaves no line of its own, the error names the packed file, and nothing is left."""
+    copy = _copy(packed, tmp_path / "packed")
+    damaged = copy / next(f.path for f in read_manifest(copy, PACKED_NAME).files if f.path.startswith(f"{what}/"))
+    data = bytearray(damaged.read_bytes())
+    data[100] ^= 0xFF
+    damaged.write_bytes(bytes(data))
+    _refused_leaving_all_as_it_was(["unpack", copy, "-o", tmp_path / "out"], [tmp_path], str(damaged))
+
+
+def _zstd_chunks(bag: Path) -> None:
+    """Rewrite the MCAP `bag` with zstd-compressed chunks (as `ros2 bag record`'s zstd presets write them; simgen's
+    writer stores its chunks uncompressed): the same schemas, channels, messages and metadata."""
+    from mcap.reader import make_reader
+    from mcap.writer import CompressionType, Writer
+
+    staged = bag.with_suffix(".zstd")
+    with open(bag, "rb") as source, open(staged, "wb") as target:
+        reader, writer = make_reader(source), Writer(target, compression=CompressionType.ZSTD)
+        header = reader.get_header()
+        writer.start(header.profile, header.library)
+        schemas, channels = {}, {}
+        for schema, channel, message in reader.iter_messages(log_time_order=False):
+            if schema is not None and schema.id not in schemas:
+                schemas[schema.id] = writer.register_schema(schema.name, schema.encoding, schema.data)
+            if channel.id not in channels:
+                channels[channel.id] = writer.register_channel(channel.topic, channel.message_encoding,
+                                                               schemas.get(channel.schema_id, 0), channel.metadata)
+            writer.add_message(channels[channel.id], message.log_time, message.data, message.publish_time,
+                               message.sequence)
+        for metadata in reader.iter_metadata():
+            writer.add_metadata(metadata.name, metadata.metadata)
+        writer.finish()
+    staged.replace(bag)
+
+
 def test_a_bag_holding_more_points_than_its_manifest_lists_is_refused_before_it_is_decompressed(tmp_path):
     """An `mcap` dataset whose bag holds a frame of `BOMB_POINTS` points (a few hundred KB of zstd) while its
     manifest lists 1,000 points for the clip: the chunks' declared sizes give it away before any is expanded."""
@@ -346,10 +488,14 @@ def test_a_bag_holding_more_points_than_its_manifest_lists_is_refused_before_it_
     clip = make_clip("clip_0000", 2, points=0, humanoids=0)
     clip[0] = dataclasses.replace(clip[0], scan=_zeros(BOMB_POINTS))
     write_dataset(root, "mcap", [clip])
+    bag = root / "clip_0000" / "clip_0000.mcap"
+    _zstd_chunks(bag)
     manifest = json.loads((root / MANIFEST_NAME).read_text())
     manifest["clips"][0]["points"] = manifest["totals"]["points"] = 1000
+    entry = next(f for f in manifest["files"] if f["path"] == bag.relative_to(root).as_posix())
+    entry["bytes"], entry["sha256"] = bag.stat().st_size, hashlib.sha256(bag.read_bytes()).hexdigest()
     (root / MANIFEST_NAME).write_text(json.dumps(manifest))
-    assert (root / "clip_0000" / "clip_0000.mcap").stat().st_size < 3_000_000
+    assert bag.stat().st_size < 3_000_000
     with pytest.raises(UserError, match=r"chunks declare over .* bytes, more than 1,000 points in 2 frames take"):
         simgen.datasets.open(root).frame("clip_0000", 0)
     code, out, err, peak, _ = measured_process("simgen.cli", "export", root, "-o", tmp_path / "out.mcap")

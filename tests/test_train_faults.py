@@ -338,6 +338,15 @@ def test_a_plain_pickle_or_a_folder_as_checkpoint_is_one_line(world, tmp_path):
     assert_one_line_refusal(code, out, err, "a folder")
     assert "is a folder, not a checkpoint file" in err
     assert not (tmp_path / "out").exists()
+    run = _stopped(world, tmp_path / "run")  # its checkpoint.pt replaced by a folder: fit, resumed or not
+    (run / CHECKPOINT_NAME).unlink()
+    (run / CHECKPOINT_NAME).mkdir()
+    before = _snapshot(run)
+    for options in ((), ("--resume",), ("--overwrite",)):
+        code, out, err = _fit(world, run, *options)
+        assert_one_line_refusal(code, out, err, options)
+        assert f"{run / CHECKPOINT_NAME}: not a regular file" in err, err
+        assert _snapshot(run) == before and (run / CHECKPOINT_NAME).is_dir()
 
 
 # --- temporary files, refusals that leave nothing -----------------------------------------------

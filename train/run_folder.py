@@ -43,6 +43,9 @@ class RunFolder:
             for name in RUN_FILES:  # no other writer is alive: what one never renamed is stale
                 for stale in out.glob(f".{name}.tmp-*"):
                     stale.unlink()
+            for name in RUN_FILES:  # what --resume reads and --overwrite removes
+                if (out / name).exists() and not (out / name).is_file():
+                    raise UserError(f"{out / name}: not a regular file, as a run's {name} is; move it out")
             held = [name for name in (CHECKPOINT_NAME, LOG_NAME) if (out / name).exists()]
             if held and not (self.resume or self.overwrite):
                 raise UserError(f"{out}: holds a training run ({held[0]}); --resume continues it, --overwrite "

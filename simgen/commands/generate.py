@@ -134,7 +134,7 @@ def run(args) -> int:
         os.environ.setdefault(name, value)
     from simgen.motion.engine import check_level
 
-    check_output(args.output, "folder", reads=[args.scenario])
+    check_output(args.output, "folder", reads=[args.scenario], replaces=args.overwrite)
     scenario = _resolve(args)
     if args.workers < 1 or args.workers > 4 * (os.cpu_count() or 1):
         raise UserError(f"--workers: {args.workers} is not between 1 and {4 * (os.cpu_count() or 1)}")

@@ -77,8 +77,8 @@ def run(args) -> int:
             dataset = open_dataset(args.dataset)
             out.mkdir(parents=True, exist_ok=True)
             report = dataset_report(dataset, tolerances, out, args.max_frames)
-    except (UnknownSensorError, PatternFileNotFound) as error:
-        if created:
+    except (UserError, UnknownSensorError, PatternFileNotFound) as error:
+        if created:  # a refused qa leaves nothing behind
             shutil.rmtree(out, ignore_errors=True)
         raise UserError(str(error)) from None
     write_report(report, out)

@@ -71,11 +71,6 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from simgen.datasets import open_dataset
-    from simgen.qa.checks import plural
-    from simgen.view.export import export_frame
-    from simgen.view.output import write_clip_view
-
     if not 1.0 <= args.scale <= 100.0:
         raise UserError(f"--scale must be in 1-100 pixels per metre, got {args.scale:g}")
     if args.output is None and args.rerun is None:
@@ -92,6 +87,11 @@ def run(args) -> int:
         raise UserError("--tracks draws trajectories into -o OUT, alone: without --rerun, --export-frame, --no-images")
     if args.no_images and not args.export_frame:
         raise UserError("--no-images leaves nothing to write: add --export-frame I")
+    from simgen.datasets import open_dataset  # the heavy imports after the arguments are checked
+    from simgen.qa.checks import plural
+    from simgen.view.export import export_frame
+    from simgen.view.output import write_clip_view
+
     started = time.perf_counter()
     dataset = open_dataset(args.dataset)
     clip = args.clip if args.clip is not None else dataset.clips[0]

@@ -51,7 +51,7 @@ def pack(dataset: Path, out: Path, progress: bool = False) -> Manifest:
     most = max_points_per_frame(manifest.sensors)
     sources = _sources(dataset, manifest, MANIFEST_NAME, most)
     with _staging(out) as staging:
-        for record, source in tqdm(zip(manifest.files, sources), desc=f"pack {out.name}", unit="file",
+        for record, source in tqdm(zip(manifest.files, sources), desc=f"pack {out.name}", unit="file", leave=False,
                                    total=len(sources), disable=not progress):
             target = staging / record.path
             if sha256_file(source) != record.sha256:
@@ -82,7 +82,7 @@ def unpack(packed: Path, out: Path, progress: bool = False) -> Manifest:
     sources = _sources(packed, manifest, PACKED_NAME, most)
     with _staging(out) as staging:
         records = []
-        for record, source in tqdm(zip(manifest.files, sources), desc=f"unpack {out.name}", unit="file",
+        for record, source in tqdm(zip(manifest.files, sources), desc=f"unpack {out.name}", unit="file", leave=False,
                                    total=len(sources), disable=not progress):
             target = staging / record.path
             target.parent.mkdir(parents=True, exist_ok=True)

@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from simgen.atomic import atomic_path
 from simgen.datasets.frame import Frame, class_names
 from simgen.datasets.kitti_camera import IMAGE_SIZE_PX, calib_lines, kitti_boxes, pitch_boxes
+from simgen.datasets.limits import check_label_lines
 from simgen.datasets.records import FileRecord, record_file, write_bytes, write_text
 from simgen.datasets.samples import float32_text, float64_text, from_xyzi, sample_name, to_xyzi
 from simgen.datasets.verify import DatasetFiles
@@ -195,10 +196,11 @@ def read_velodyne(data: bytes, path: Path, rows: int) -> tuple[NDArray[np.float3
 class KittiReader:
     """Frames of a `kitti` or `kitti_tracking` dataset."""
 
-    def __init__(self, files: DatasetFiles, clip_indices: dict[str, int], tracking: bool):
+    def __init__(self, files: DatasetFiles, clip_indices: dict[str, int], tracking: bool, frames: dict[int, int]):
         self.files = files
         self.clip_indices = clip_indices
         self.tracking = tracking
+        self.frames = frames  # per clip index
         self._labels = functools.lru_cache(maxsize=OPEN_CLIPS)(self._read_labels)
 
     def _read_labels(self, clip_index: int, index: int) -> dict[str, NDArray]:
@@ -206,9 +208,9 @@ class KittiReader:
         if self.files.read(calib).decode(errors="replace").splitlines() != calib_lines(self.tracking):
             raise UserError(f"{self.files.root / calib}: not simgen's virtual camera (see the dataset README)")
         relative = label_path(self.tracking, clip_index, index)
-        labels = parse_labels(
-            self.files.read(relative).decode(errors="replace"), self.files.root / relative, self.tracking
-        )
+        text = self.files.read(relative).decode(errors="replace")
+        check_label_lines(self.files.root / relative, text, self.frames[clip_index] if self.tracking else 1)
+        labels = parse_labels(text, self.files.root / relative, self.tracking)
         if self.tracking:
             labels["discontinuity"] = np.isin(
                 labels["frame"] * TRACK_ID_SPAN + labels["track_id"], self._placements(clip_index)

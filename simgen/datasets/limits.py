@@ -1,9 +1,10 @@
 """What a dataset may hold, checked against what its files declare before anything is expanded.
 
-A shot gives at most one point, so a frame holds at most what its sensors fire in one frame time. A
-dataset that declares more (in manifest.json, a `frames` table or a Parquet row group) is refused in
-one line before a reader, `verify`, `pack` or `unpack` allocates for it: a few MB of zeros declaring
-3 million points a frame cannot take a reader past 1 GiB.
+A shot gives at most one point, so a frame holds at most what its sensors fire in one frame time; a box is a
+humanoid, so a frame holds at most the engine's 25 (`MAX_BOXES_PER_FRAME`). A dataset that declares more (in
+manifest.json, a `frames` table, a Parquet row group or a label file's lines) is refused in one line before a
+reader, `verify`, `pack` or `unpack` allocates for it: a few MB of zeros declaring 3 million points a frame
+cannot take a reader past 1 GiB.
 """
 
 from __future__ import annotations
@@ -18,9 +19,12 @@ import pyarrow.parquet as pq
 from simgen.errors import UserError
 from simgen.scan.sensor import Sensor
 from simgen.scenario import BYTES_PER_RAY, BYTES_PER_SHOT, MAX_FRAME_BYTES
+from simgen.vocab import MAX_HUMANOIDS
 
 #: Points a frame of any scenario may hold: its shots within the frame memory budget at one subray.
 MAX_POINTS_PER_FRAME = MAX_FRAME_BYTES // (BYTES_PER_SHOT + BYTES_PER_RAY)
+#: Boxes a frame may hold: one per humanoid on the pitch (the ball has none).
+MAX_BOXES_PER_FRAME = MAX_HUMANOIDS
 #: Bytes a row's values take uncompressed, by column type (a dictionary column's index; strings at most this).
 MAX_STRING_BYTES = 1024
 #: Allowance per Parquet row group beyond its values: dictionary pages, levels, page headers.
@@ -54,9 +58,11 @@ def row_bytes(schema: pa.Schema) -> int:
     return total
 
 
-def check_declared_sizes(parquet: pq.ParquetFile, path: Path, rows: int, most_rows_per_group: int) -> None:
+def check_declared_sizes(
+    parquet: pq.ParquetFile, path: Path, rows: int, most_rows_per_group: int, why: str = "fit the dataset's sensors"
+) -> None:
     """Before reading `parquet`: it holds `rows` rows (as the manifest lists), no row group more than
-    `most_rows_per_group`, and no row group declares more bytes than its rows' values can take."""
+    `most_rows_per_group` (the limit `why`), and no row group declares more bytes than its rows' values can take."""
     metadata = parquet.metadata
     if metadata.num_rows != rows:
         raise UserError(f"{path}: declares {metadata.num_rows:,} rows, manifest.json lists {rows:,}")
@@ -65,7 +71,7 @@ def check_declared_sizes(parquet: pq.ParquetFile, path: Path, rows: int, most_ro
         declared = metadata.row_group(group)
         if declared.num_rows > most_rows_per_group:
             raise UserError(f"{path}: row group {group} declares {declared.num_rows:,} rows, at most "
-                            f"{most_rows_per_group:,} fit the dataset's sensors")
+                            f"{most_rows_per_group:,} {why}")
         size = sum(declared.column(c).total_uncompressed_size for c in range(declared.num_columns))
         if size > declared.num_rows * per_row + ROW_GROUP_OVERHEAD_BYTES:
             raise UserError(f"{path}: row group {group} declares {size:,} bytes for {declared.num_rows:,} rows, "
@@ -77,3 +83,16 @@ def check_points(where: Path, what: str, points: int, frames: int, most: int) ->
     if points > frames * most:
         raise UserError(f"{where}: {what} declares {points:,} points in {frames:,} frame{'s' * (frames != 1)}, more "
                         f"than its sensors fire (at most {most:,} a frame)")
+
+
+def check_boxes(where: Path, what: str, boxes: int, frames: int) -> None:
+    """`boxes` declared for `what` (a clip, a frame) in `frames` frames fit `MAX_BOXES_PER_FRAME` a frame."""
+    if boxes > frames * MAX_BOXES_PER_FRAME:
+        raise UserError(f"{where}: {what} declares {boxes:,} boxes in {frames:,} frame{'s' * (frames != 1)}, more "
+                        f"than a match has humanoids (at most {MAX_BOXES_PER_FRAME} a frame)")
+
+
+def check_label_lines(path: Path, text: str, frames: int) -> None:
+    """A label text file (a line a box, as simgen writes them) of `frames` frames holds no more lines than their boxes
+    may be, counted before any line is split."""
+    check_boxes(path, "the file", text.count("\n") + bool(text and not text.endswith("\n")), frames)

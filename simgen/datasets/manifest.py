@@ -20,7 +20,7 @@ from typing import Annotated, Any, Literal
 from pydantic import AfterValidator, Field, ValidationError, model_validator
 
 from simgen.datasets.formats import FORMATS
-from simgen.datasets.limits import check_points, max_points_per_frame
+from simgen.datasets.limits import check_boxes, check_points, max_points_per_frame
 from simgen.datasets.records import FileRecord
 from simgen.datasets.schema import BOX_CONVENTION, PITCH_FRAME, SCHEMA_VERSION
 from simgen.errors import UserError
@@ -227,4 +227,5 @@ def read_manifest(root: Path, name: str = MANIFEST_NAME) -> Manifest:
     most = max_points_per_frame(manifest.sensors)
     for entry in manifest.clips:
         check_points(path, f"clip {entry.clip}", entry.points, entry.frames, most)
+        check_boxes(path, f"clip {entry.clip}", entry.boxes, entry.frames)
     return manifest

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from simgen.datasets.frame import Frame, class_names
+from simgen.datasets.limits import check_label_lines
 from simgen.datasets.records import FileRecord, write_bytes, write_text
 from simgen.datasets.samples import float32_text, from_xyzi, sample_name, to_xyzi
 from simgen.datasets.units import unit_numbers, unit_sensor_head
@@ -132,6 +133,8 @@ class OpenPCDetReader:
                 sensor, head = unit_sensor_head(array[:, 4], self.sensors)
             except ValueError as error:
                 raise UserError(f"{self.files.root / points}: {error}") from None
-        boxes, names = parse_labels(self.files.read(labels).decode(errors="replace"), self.files.root / labels)
+        text = self.files.read(labels).decode(errors="replace")
+        check_label_lines(self.files.root / labels, text, 1)
+        boxes, names = parse_labels(text, self.files.root / labels)
         return Frame(clip=clip, index=index, points_m=xyz, intensity=intensity, boxes=boxes, class_name=names,
                      sensor=sensor, head=head)

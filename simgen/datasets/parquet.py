@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from simgen.atomic import atomic_path
 from simgen.datasets.frame import Frame, class_names
-from simgen.datasets.limits import check_declared_sizes, check_points
+from simgen.datasets.limits import MAX_BOXES_PER_FRAME, check_boxes, check_declared_sizes, check_points
 from simgen.datasets.records import FileRecord, record_file
 from simgen.datasets.schema import (
     BOX_FIELDS,
@@ -348,8 +348,12 @@ class ParquetReader:
         relative = table_path(name, clip)
         parquet = open_table(self.files.path(relative), name)
         rows = self.files.rows(relative)
-        per_group = {"frames": FRAMES_PER_GROUP, "points": POINTS_FRAMES_PER_GROUP * self.most_points}.get(name, rows)
-        check_declared_sizes(parquet, self.files.root / relative, rows, per_group)
+        if name == "boxes":
+            limit = (FRAMES_PER_GROUP * MAX_BOXES_PER_FRAME, "a match's humanoids fill")
+        else:
+            limit = ({"frames": FRAMES_PER_GROUP, "points": POINTS_FRAMES_PER_GROUP * self.most_points}.get(name, rows),
+                     "fit the dataset's sensors")
+        check_declared_sizes(parquet, self.files.root / relative, rows, *limit)
         return parquet
 
     def _read(self, name: str, clip: str) -> pa.Table:
@@ -361,12 +365,15 @@ class ParquetReader:
     def _load_clip(self, clip: str) -> _ClipTables:
         frames = self._read("frames", clip)  # as many rows as manifest.json lists: `_open` checks it
         count = len(frames)
-        counts = frames["num_points"].to_numpy()
-        if count:  # before any of the points is read
+        counts, box_counts = frames["num_points"].to_numpy(), frames["num_boxes"].to_numpy()
+        frames_path = self.files.root / table_path("frames", clip)
+        if count:  # before any of the points or boxes is read
             worst = int(np.argmax(counts))
-            check_points(
-                self.files.root / table_path("frames", clip), f"frame {worst}", int(counts[worst]), 1, self.most_points
-            )
+            check_points(frames_path, f"frame {worst}", int(counts[worst]), 1, self.most_points)
+            worst = int(np.argmax(box_counts))
+            check_boxes(frames_path, f"frame {worst}", int(box_counts[worst]), 1)
+        boxes_path = table_path("boxes", clip)
+        check_boxes(self.files.root / boxes_path, "the table", self.files.rows(boxes_path), count)
         boxes = self._read("boxes", clip)
         points = self._open("points", clip)
         path = self.files.root / table_path("points", clip)
@@ -377,6 +384,9 @@ class ParquetReader:
             if set(table["clip"].unique().to_pylist()) - {clip}:
                 raise UserError(f"{self.files.root / table_path(name, clip)}: rows of another clip than {clip}")
         offsets = np.searchsorted(boxes["frame"].to_numpy(), np.arange(count + 1))
+        if not np.array_equal(np.diff(offsets), box_counts):
+            raise UserError(f"{self.files.root / table_path('boxes', clip)}: rows are not the boxes the frames table "
+                            "counts")
         sizes = [points.metadata.row_group(g).num_rows for g in range(groups)]
         point_offsets = np.concatenate([[0], np.cumsum(frames["num_points"].to_numpy(), dtype=np.int64)])
         group_starts = point_offsets[np.minimum(np.arange(groups + 1) * POINTS_FRAMES_PER_GROUP, count)]

@@ -168,14 +168,14 @@ def _integrity_section(result: Verification, root: Path) -> Section:
 def dataset_report(dataset: Dataset, tol: Tolerances, out_dir: Path, max_frames: int) -> Report:
     """The dataset's sensors' patterns, its frames, its humanoids' points and its integrity."""
     manifest = dataset.manifest
+    qa = dataset_qa(dataset, tol.dataset, tol.labels, max_frames)  # first: a refused frame leaves nothing written
+    verification = verify_dataset(dataset.root, tol.labels)
     checks: list[Check] = []
     sections: list[Section] = []
     for preset, sensor in {s.preset: s for s in manifest.sensors}.items():
         heads = sensor_qa(preset, sensor.heads, tol.pattern)
         checks += [c for h in heads for c in h.checks]
         sections += pattern_sections(preset, heads, out_dir, tol)
-    qa = dataset_qa(dataset, tol.dataset, tol.labels, max_frames)
-    verification = verify_dataset(dataset.root, tol.labels)
     checks += qa.checks
     problems = len(verification.problems)
     checks.append(Check("dataset", "integrity (simgen verify)", f"{problems} problems", "0 problems", problems == 0))

@@ -37,7 +37,9 @@ class Kitti(DatasetFormat):
         return kitti.KittiClipStream(root, clip_index, tracking=self.tracking)
 
     def reader(self, files, manifest):
-        return kitti.KittiReader(files, {c.clip: c.clip_index for c in manifest.clips}, tracking=self.tracking)
+        clips = manifest.clips
+        return kitti.KittiReader(files, {c.clip: c.clip_index for c in clips}, self.tracking,
+                                 {c.clip_index: c.frames for c in clips})
 
     def clip_files(self, entry: ClipEntry) -> set[str]:
         paths = (kitti.velodyne_path, kitti.label_path, kitti.calib_path)
