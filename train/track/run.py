@@ -33,8 +33,8 @@ import torch
 from tqdm import tqdm
 
 import simgen.datasets
+from simgen.datasets.formats.mcap import SIMGEN_LAYOUT, XYZI_LAYOUT
 from simgen.datasets.frame import Frame
-from simgen.datasets.ros2_bag import SIMGEN_LAYOUT, XYZI_LAYOUT
 from simgen.errors import UserError
 from train.config import TRACKLET_FRAMES, DataConfig, DetectorConfig
 from train.data import Sample, crop, encode_sample, frame_points, load_sample
