@@ -34,7 +34,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # this tree's packages, and tests.support's synthetic frames
 
 import simgen.datasets
-from simgen.datasets import FORMATS, finish_dataset, parquet, write_clip
+from simgen.datasets import FORMATS, finish_dataset, write_clip
+from simgen.datasets.formats import parquet
 from tests.support.datasets import make_clip, sensors
 
 POINTS = 25_000

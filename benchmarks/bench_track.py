@@ -6,7 +6,7 @@ tracker alone against AB3DMOT's config.
    from its ROS 2 bag (`simgen export`, each frame's cloud decoded as it comes, as from a sensor),
    one torch thread, BLAS threads 1. The weights are untrained, so its inference keeps every candidate
    (score threshold 0) up to `--detections` boxes a frame after NMS (default 47: what the paper_x1 study's
-   trained model gave per val frame, docs/study_paper_x1_1200/table2.md), and the tracker sees them through
+   trained model gave per val frame, studies/paper_x1_1200/table2.md), and the tracker sees them through
    the default filter at score 0 (centres 1 m apart): the work a trained model's output costs. Reported:
    p50 / p99 / max of read, pillars, network, decode, track and their total per frame in CPU time of the
    thread (the shared machine's load left out), after the network's warm-up; the real-time factor at 11 Hz

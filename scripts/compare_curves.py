@@ -1,8 +1,8 @@
 """Learning curves of several runs in one picture: val 3D AP R40 (percent) against training iterations.
 
     .venv/bin/python scripts/compare_curves.py -o docs/study_paper_gap.png \
-        "late, swept=docs/study_paper_x1_restarts/late_learning_curve.csv" \
-        "late, snapshot=docs/study_paper_x1_snapshot/late_learning_curve.csv"
+        "late, swept=studies/paper_x1_restarts/late_learning_curve.csv" \
+        "late, snapshot=studies/paper_x1_snapshot/late_learning_curve.csv"
 
 Each argument is LABEL=PATH of a `learning_curve.csv` that `simgen-train fit` wrote (columns
 iteration, bev_r40, 3d_r40, ...). Runs whose label starts with the same word share a line style.

@@ -27,7 +27,7 @@ import scan_patterns
 from scan_patterns.replay import OFFICIAL_FILES
 from scan_patterns.risley import FITTED
 from scan_patterns.rotors import FITS
-from simgen.datasets.formats import FORMATS, dataset_format, formats_where
+from simgen.datasets.formats import FORMATS, format_limits, formats_allowing
 from simgen.validation import Strict, one_line, read_yaml, validate
 
 #: Colon-separated folders besides the scenario's own that a replay head's `file` may come from.
@@ -134,8 +134,8 @@ class DatasetConfig(Strict):
 
     @model_validator(mode="after")
     def _images_for_kitti(self) -> DatasetConfig:
-        if self.kitti_images and not dataset_format(self.format).placeholder_images:
-            takers = " or ".join(formats_where(lambda f: f.placeholder_images))
+        if self.kitti_images and not format_limits(self.format).placeholder_images:
+            takers = " or ".join(formats_allowing(lambda limits: limits.placeholder_images))
             raise ValueError(f"dataset.kitti_images: placeholder images are for format {takers}, not {self.format}")
         return self
 
@@ -387,7 +387,7 @@ class Scenario(Strict):
                 f"less than one frame at scan.frame_rate_hz {self.scan.frame_rate_hz:g} (raise motion.frames or the "
                 f"frame rate)"
             )
-        most = dataset_format(self.dataset.format).max_frames_per_clip
+        most = format_limits(self.dataset.format).max_frames_per_clip
         if most is not None and self.frames_per_clip() > most:
             raise ValueError(
                 f"scan.frames: {self.frames_per_clip()} frames per clip; the {self.dataset.format} format numbers at "

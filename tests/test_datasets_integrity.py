@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import simgen.datasets
-import simgen.datasets.parquet
+import simgen.datasets.formats.parquet
 from simgen.datasets import FORMATS, write_clip
 from simgen.datasets.manifest import MANIFEST_NAME
 from simgen.datasets.schema import SCHEMA_VERSION
@@ -93,7 +93,7 @@ def test_a_failed_write_leaves_no_file_under_its_final_name(tmp_path, monkeypatc
     def fail(frame):
         raise RuntimeError("disk full")
 
-    monkeypatch.setattr(simgen.datasets.parquet, "points_table", fail)
+    monkeypatch.setattr(simgen.datasets.formats.parquet, "points_table", fail)
     with pytest.raises(RuntimeError, match="disk full"):
         write_clip(tmp_path, "parquet", CLIPS[0], sensors(), 0)
     written = [str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*") if p.is_file()]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from simgen.datasets import kitti_camera as camera
-from simgen.datasets.kitti import UNKNOWN_OCCLUSION, label_lines, parse_labels
+from simgen.datasets.formats.kitti import UNKNOWN_OCCLUSION, label_lines, parse_labels
 from tests.support.datasets import make_clip, sensors
 
 

@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 import simgen.datasets
 from scan_patterns import get_sensor
 from simgen.cli import main
-from simgen.datasets.ros2_bag import (
+from simgen.datasets.formats.mcap import (
     BOXES_TOPIC,
     LIVOX_LAYOUT,
     SIMGEN_LAYOUT,

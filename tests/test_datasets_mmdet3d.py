@@ -1,5 +1,5 @@
 """MMDetection3D's info files of an OpenPCDet dataset: a loader written here from the documented v2 layout
-(simgen.datasets.mmdet3d) reads every sample, its points and its boxes, as the dataset reader gives them."""
+(simgen.datasets.formats.openpcdet) reads every sample, its points and its boxes, as the dataset reader gives them."""
 
 from __future__ import annotations
 

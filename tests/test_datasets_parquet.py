@@ -141,8 +141,8 @@ def test_partial_clips_read_back_and_rewritten_give_the_same_bytes(tmp_path, mon
     """What `simgen generate` does with a clip's shards: each shard streams its frame range into a
     partial clip; the partial clips, read back in order, stream into the final files, whose bytes
     must be those of the clip written in one go (row groups of frames and boxes spanning shards)."""
-    from simgen.datasets import parquet
-    from simgen.datasets.parquet import labelled_frames
+    from simgen.datasets.formats import parquet
+    from simgen.datasets.formats.parquet import labelled_frames
     from simgen.datasets.write import ClipWriter, write_clip
     from tests.support.datasets import make_clip, sensors
 
@@ -166,7 +166,7 @@ def test_partial_clips_read_back_and_rewritten_give_the_same_bytes(tmp_path, mon
 
 
 def test_frames_read_in_any_order_from_row_groups_of_several_frames(tmp_path, monkeypatch):
-    from simgen.datasets import parquet
+    from simgen.datasets.formats import parquet
     from tests.support.datasets import make_clip
 
     monkeypatch.setattr(parquet, "POINTS_FRAMES_PER_GROUP", 3)  # 11 frames: groups of 3, 3, 3 and 2

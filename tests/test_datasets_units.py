@@ -9,7 +9,8 @@ import pytest
 import yaml
 
 import simgen.datasets
-from simgen.datasets import openpcdet, openpcdet_config
+from simgen.datasets import openpcdet_config
+from simgen.datasets.formats import openpcdet
 from simgen.datasets.units import lidar_units, unit_numbers, unit_sensor_head
 from simgen.errors import UserError
 from tests.support.datasets import make_clip, mid40, sensors, with_mid40

@@ -1,4 +1,5 @@
-"""The README's examples run as written: every line of its code blocks and its inline commands.
+"""The README's examples run as written: every line of its code blocks and its inline commands, then those of
+docs/usage.md (the tour in full; a line the README already ran runs once).
 
 They run in order in a scratch folder laid out like a checkout (`scenarios/` linked, `datasets/` made by
 the tour itself), with the .venv's bin first on PATH (as after `source .venv/bin/activate`, which puts
@@ -23,6 +24,8 @@ from tests.support.processes import local_ray_cluster
 
 pytestmark = pytest.mark.engine
 README = ROOT / "README.md"
+#: The pages whose examples run, in this order: the README's tour, then the reference that continues it.
+PAGES = (README, ROOT / "docs" / "usage.md")
 #: Arguments added to a line that names the scenario, so that it makes one clip instead of four.
 SMALLER = {"scenarios/paper_x1.yaml -o datasets/paper_x1": ["--clips", "1"],
            "scenarios/paper_x2.yaml -o datasets/paper_x2": ["--clips", "1", "--frames", "22"]}
@@ -71,8 +74,25 @@ def _run(command: list[str], cwd: Path) -> subprocess.CompletedProcess:
     return subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, timeout=900)
 
 
+def pages_examples() -> tuple[list[str], list[str]]:
+    """(shell lines, Python scripts) of every page of `PAGES` in turn, each distinct line once."""
+    commands, scripts = [], []
+    for page in PAGES:
+        page_commands, page_scripts = readme_examples(page.read_text())
+        commands += [command for command in page_commands if command not in commands]
+        scripts += page_scripts
+    return commands, scripts
+
+
+def test_usage_page_continues_the_readme_tour():
+    readme, _ = readme_examples(README.read_text())
+    usage, _ = readme_examples(PAGES[1].read_text())
+    assert len(readme) >= 10 and len(usage) > len(readme)
+    assert not [command for command in readme if command.startswith("simgen ") and command not in usage]
+
+
 def test_every_readme_example_runs_as_written(tmp_path):
-    commands, scripts = readme_examples(README.read_text())
+    commands, scripts = pages_examples()
     assert len(scripts) == 1 and any(c.startswith("simgen export") for c in commands)
     assert any(c.startswith("duckdb -c") for c in commands)  # the inline Parquet query
     (tmp_path / "scenarios").symlink_to(ROOT / "scenarios")

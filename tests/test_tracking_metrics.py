@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
 
-from simgen.datasets.kitti import parse_labels
+from simgen.datasets.formats.kitti import parse_labels
 from train.evaluation.hota import centre_hota, centre_similarity, hota
 from train.evaluation.kitti import write_kitti_tracking
 from train.evaluation.tracking import evaluate_tracking, recall_thresholds, switches_and_fragments

@@ -12,7 +12,7 @@ from mcap_ros2.decoder import DecoderFactory
 
 import simgen.datasets
 from simgen.cli import main
-from simgen.datasets.ros2_bag import BOXES_TOPIC
+from simgen.datasets.formats.mcap import BOXES_TOPIC
 from tests.support.datasets import make_clip, sensors, write_dataset
 
 FRAMES = range(1, 6)

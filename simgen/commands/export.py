@@ -62,8 +62,8 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from tqdm import tqdm
 
-    from simgen.datasets import open_dataset, ros2_bag
-    from simgen.datasets.formats import formats_where
+    from simgen.datasets import open_dataset
+    from simgen.datasets.formats import formats_where, mcap
 
     check_output(args.output, "file" if args.format == "las" else "folder", reads=[args.dataset], new=True)
     dataset = open_dataset(args.dataset)
@@ -71,26 +71,26 @@ def run(args) -> int:
     frames = frame_range(args.frames, dataset.num_frames(clip))
     if args.format == "las":
         return _las(args, dataset, clip, frames)
-    layout = ros2_bag.LAYOUTS[args.ros2_layout]
+    layout = mcap.LAYOUTS[args.ros2_layout]
     if not dataset.plugin.carries.point_fields:
         if layout.sensor_frame:
             per_point = formats_where(lambda f: f.carries.point_fields)
             raise UserError(f"--ros2-layout {layout.name}: a {dataset.format} dataset keeps no sensor, head or time "
                             f"per point (export a {' or '.join(per_point)} dataset)")
-        layout = ros2_bag.XYZI_LAYOUT
+        layout = mcap.XYZI_LAYOUT
         ids = "" if dataset.plugin.carries.track_ids else "; no track ids: marker ids number each frame's boxes"
         print(f"{args.output}: {dataset.format} keeps no sensor, head, time or instance per point: x, y, z, intensity "
-              f"on one topic, {ros2_bag.ALL_POINTS_TOPIC}{ids}")
-    sensors, naming = list(dataset.manifest.sensors), ros2_bag.Naming(args.topic, args.frame_id)
-    ros2_bag.check_naming(naming, layout, sensors)
+              f"on one topic, {mcap.ALL_POINTS_TOPIC}{ids}")
+    sensors, naming = list(dataset.manifest.sensors), mcap.Naming(args.topic, args.frame_id)
+    mcap.check_naming(naming, layout, sensors)
     first = dataset.frame(clip, frames.start)  # a clip that does not read is one line, before the progress bar
-    ros2_bag.check_heads(layout, sensors, first)
+    mcap.check_heads(layout, sensors, first)
     progress = tqdm(frames, unit="frame", desc=f"{clip} -> {args.output.name}", dynamic_ncols=True)
     read = (first if i == frames.start else dataset.frame(clip, i) for i in progress)
-    summary = ros2_bag.write_bag(args.output, read, sensors, layout, naming)
+    summary = mcap.write_bag(args.output, read, sensors, layout, naming)
     print(
         f"{args.output}: {summary.frames} frames of {clip}, {summary.messages} messages (ROS 2, MCAP, {layout.name} "
-        f"points), in {ros2_bag.bag_name(args.output)}.mcap and metadata.yaml"
+        f"points), in {mcap.bag_name(args.output)}.mcap and metadata.yaml"
     )
     return 0
 

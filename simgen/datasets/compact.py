@@ -27,9 +27,9 @@ from tqdm import tqdm
 from simgen.atomic import atomic_path
 from simgen.datasets.card import dataset_card
 from simgen.datasets.formats import dataset_format
+from simgen.datasets.formats.parquet import POINTS_FRAMES_PER_GROUP, table_writer
 from simgen.datasets.limits import check_declared_sizes, max_points_per_frame
 from simgen.datasets.manifest import MANIFEST_NAME, Manifest, manifest_bytes, read_manifest
-from simgen.datasets.parquet import POINTS_FRAMES_PER_GROUP, table_writer
 from simgen.datasets.records import FileRecord, record_file, sha256_file, write_bytes
 from simgen.datasets.schema import TABLES
 from simgen.datasets.write import CARD_NAME, write_card

@@ -15,13 +15,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from simgen.datasets.formats import MAX_FRAMES_PER_CLIP
 from simgen.datasets.records import FileRecord, write_text
 from simgen.errors import UserError
 
 if TYPE_CHECKING:
     from simgen.datasets.records import ClipRecord
 
-MAX_FRAMES_PER_CLIP = 10_000
 INTENSITY_SCALE = 255.0  # stored intensity = reflectivity / 255, in [0, 1] as KITTI's
 VAL_FRACTION = 0.2  # of the clips (the last ones), when there are two or more
 IMAGE_SETS = ("ImageSets/train.txt", "ImageSets/val.txt", "ImageSets/trainval.txt")

@@ -132,7 +132,7 @@ def run_shard(job: Job, progress: Progress) -> dict:
 def run_assemble(job: Job, progress: Progress) -> dict:
     """Join a clip's shards: stream the partial clips into the final files in frame order (or, for
     formats whose shards wrote in place, gather their records); returns the clip's `ClipRecord`."""
-    from simgen.datasets.parquet import labelled_frames
+    from simgen.datasets.formats.parquet import labelled_frames
     from simgen.datasets.records import ClipRecord
     from simgen.datasets.write import ClipWriter
     from simgen.labels.statistics import LabelStatistics

@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from simgen.datasets.kitti import box_fields
+from simgen.datasets.formats.kitti import box_fields
 from train.tracking.types import GroundTruthFrame, TrackedFrame
 
 

@@ -2,7 +2,7 @@
 
 Where the engine placed a humanoid for a restart (its box's discontinuity flag), the ground truth starts a
 new identity: no tracker can follow a jump of metres, and none is charged an identity switch or credited a
-match across it (README "Restarts").
+match across it (docs/usage.md, "Restarts").
 """
 
 from __future__ import annotations

@@ -84,7 +84,7 @@ class BagFrames:
         from mcap.exceptions import McapError
         from mcap.reader import make_reader
 
-        from simgen.datasets.ros2_bag import LAYOUTS, bag_name
+        from simgen.datasets.formats.mcap import LAYOUTS, bag_name
 
         self.clip = bag_name(path) if path.is_dir() else path.stem
         self.path = path / f"{self.clip}.mcap" if path.is_dir() else path  # a rosbag2 directory, or its MCAP
@@ -110,7 +110,7 @@ class BagFrames:
         from mcap.reader import make_reader
         from mcap_ros2.decoder import DecoderFactory
 
-        from simgen.datasets.ros2_bag import BOXES_TOPIC, TF_STATIC_TOPIC, boxes_of, cloud_array
+        from simgen.datasets.formats.mcap import BOXES_TOPIC, TF_STATIC_TOPIC, boxes_of, cloud_array
 
         poses: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
         pending: dict[str, NDArray] = {}

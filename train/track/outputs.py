@@ -3,7 +3,7 @@ replaces OUT's files only once the whole run has succeeded (bad input half-way l
 
 - `kitti/<clip>.txt`: KITTI tracking results (train.evaluation.kitti's lines, numbered by the clip's frame);
 - `tracks.parquet`: the `tracks` table, a row per track and frame (TRACKS_SCHEMA, units in field metadata);
-- `mcap/<clip>/`: a ROS 2 bag (simgen.datasets.ros2_bag's writer: `<clip>.mcap` and rosbag2's metadata.yaml)
+- `mcap/<clip>/`: a ROS 2 bag (simgen.datasets.formats.mcap's writer: `<clip>.mcap` and rosbag2's metadata.yaml)
   with the frame's points and labels as simgen writes them, and `/simgen/tracks`: per frame DELETEALL, then
   per track a CUBE (namespace `tracks`, id = track id, one colour per id, dying tracks faint), its id as
   TEXT_VIEW_FACING (`track_ids`) and its trajectory so far as a LINE_STRIP (`trajectories`, the last
@@ -23,8 +23,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from simgen.datasets.frame import Frame
-from simgen.datasets.ros2_bag import (
+from simgen.datasets.formats.mcap import (
     SCHEMAS,
     BagWriter,
     PointLayout,
@@ -35,6 +34,7 @@ from simgen.datasets.ros2_bag import (
     pose_message,
     vector_message,
 )
+from simgen.datasets.frame import Frame
 from train.evaluation.kitti import kitti_lines
 from train.tracking.types import DYING, STATES, TrackedFrame
 
@@ -66,6 +66,7 @@ TRACKS_SCHEMA = pa.schema([
 def track_markers(tracked: TrackedFrame, trails: dict[int, deque], stamp_ns: int):
     """The MarkerArray of one frame's tracks; `trails` (track id -> recent centres) is updated."""
     from simgen.view.trajectories import id_colour  # the drawing stack (numba) only when a bag is written
+
 
     header = header_message(stamp_ns)
     markers = [marker_message(header, "tracks", 0, 0, 3)]

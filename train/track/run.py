@@ -14,7 +14,7 @@ written (train.track.outputs).
 
 Before tracking, the tracklets pass a score threshold and a greedy NMS on centre distance
 (train.study.tracklet_filter): by default score >= 0.2 and centres >= 1 m apart, the filter the study
-chose for the full tracker on paper_x1 (docs/study_paper_x1_1200/table2.md).
+chose for the full tracker on paper_x1 (studies/paper_x1_1200/table2.md).
 
 Ground truth (train.evaluation.truth): the labelled objects of the detector's classes whose centre lies
 in its point range (the checkpoint's config; every labelled object for other sources), on the frames
@@ -33,8 +33,8 @@ import torch
 from tqdm import tqdm
 
 import simgen.datasets
+from simgen.datasets.formats.mcap import SIMGEN_LAYOUT, XYZI_LAYOUT
 from simgen.datasets.frame import Frame
-from simgen.datasets.ros2_bag import SIMGEN_LAYOUT, XYZI_LAYOUT
 from simgen.errors import UserError
 from train.config import TRACKLET_FRAMES, DataConfig, DetectorConfig
 from train.data import Sample, crop, encode_sample, frame_points, load_sample

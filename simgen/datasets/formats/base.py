@@ -15,6 +15,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar, Protocol
 
+from simgen.datasets.formats import Limits, format_limits
+
 if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import NDArray
@@ -56,18 +58,20 @@ class Carries:
 
 
 class DatasetFormat(ABC):
-    """A dataset format; its module in `simgen.datasets.formats` holds one instance, `FORMAT`."""
+    """A dataset format; its module in `simgen.datasets.formats` holds one instance, `FORMAT`, and the registry
+    its limits (`limits`)."""
 
     name: ClassVar[str]  # as manifest.json and the scenario's dataset.format name it
     carries: ClassVar[Carries]
-    #: Frames a clip may have (formats that number files by clip and frame), None: no limit.
-    max_frames_per_clip: ClassVar[int | None] = None
-    #: Takes the scenario's `dataset.kitti_images` (blank placeholder images for tools that open them).
-    placeholder_images: ClassVar[bool] = False
     #: A file per frame: a clip rendered in frame ranges writes its final files range by range.
     frame_files: ClassVar[bool] = False
     #: `simgen pack` can carry it (its points are Parquet tables).
     packable: ClassVar[bool] = False
+
+    @property
+    def limits(self) -> Limits:
+        """What a scenario may ask of this format (frames per clip, placeholder images)."""
+        return format_limits(self.name)
 
     @abstractmethod
     def stream(self, root: Path, clip: str, clip_index: int, sensors: Sequence[Sensor]) -> ClipStream:

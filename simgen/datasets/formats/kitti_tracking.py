@@ -5,21 +5,19 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from simgen.datasets import kitti
 from simgen.datasets.formats.base import Carries, Locate
-from simgen.datasets.formats.kitti import Kitti
+from simgen.datasets.formats.kitti import Kitti, label_path, placements_path
 from simgen.datasets.manifest import ClipEntry, Manifest
 
 
 class KittiTracking(Kitti):
     name = "kitti_tracking"
     carries = Carries(track_ids=True, point_fields=False, point_counts=False)
-    placeholder_images = False
     frame_files = False  # a clip's one label file grows frame by frame
     tracking = True
 
     def clip_files(self, entry: ClipEntry) -> set[str]:
-        return super().clip_files(entry) | {kitti.placements_path(entry.clip_index)}
+        return super().clip_files(entry) | {placements_path(entry.clip_index)}
 
     def dataset_files(self, manifest: Manifest) -> set[str]:
         return set()
@@ -38,7 +36,7 @@ class KittiTracking(Kitti):
         ]
 
     def locator(self, root: Path, entry: ClipEntry, first_row: dict[int, int]) -> Locate:
-        labels = str(root / kitti.label_path(True, entry.clip_index))
+        labels = str(root / label_path(True, entry.clip_index))
         return lambda k, i: (labels, first_row[k] + i + 1)  # line number, from 1
 
 
