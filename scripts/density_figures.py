@@ -2,8 +2,8 @@
 and 3D AP against distance from the sensor with the median points per player.
 
     .venv/bin/python scripts/density_figures.py -o docs/density_sweep \\
-        --curve "late@1=docs/study_paper_x1_snapshot_track_sizes_gpu/late/learning_curve.csv" \\
-        --bins "late x1=docs/density_sweep/late_x1/ap_by_distance.csv" ...
+        --curve "late@1=studies/paper_x1_snapshot_track_sizes_gpu/late/learning_curve.csv" \\
+        --bins "late x1=studies/density_sweep/late_x1/ap_by_distance.csv" ...
 
 `--curve MODEL@DENSITY=PATH`: a `learning_curve.csv` of `simgen-train fit`, its last row's 3d_r40 the point.
 `--bins LABEL=PATH`: an `ap_by_distance.csv` of `simgen-train score|eval --by-distance`. Writes OUT/ap_by_density.png
