@@ -60,7 +60,13 @@ def _half_corners(boxes: Boxes) -> NDArray[np.float64]:
 
 def _rotate(points: NDArray[np.float64], angle: NDArray[np.float64]) -> NDArray[np.float64]:
     """Points (..., M, 2) turned counter-clockwise about the origin by angle (...) radians."""
-    cos, sin = np.cos(angle)[..., None], np.sin(angle)[..., None]
+    return _turn(points, np.cos(angle), np.sin(angle))
+
+
+def _turn(points: NDArray[np.float64], cos: NDArray[np.float64], sin: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Points (..., M, 2) turned counter-clockwise by the angle of cosine and sine (...): cos(-x) and -sin(x) are
+    numpy's cos and sin of -x bit for bit, so a turn back needs no new ones."""
+    cos, sin = cos[..., None], sin[..., None]
     x, y = points[..., 0], points[..., 1]
     turned = np.empty(np.broadcast_shapes(points.shape, cos.shape + (2,)))
     turned[..., 0] = cos * x - sin * y
@@ -79,8 +85,9 @@ def _clipped_area(a: Boxes, b: Boxes) -> NDArray[np.float64]:
     # In a's frame a is [-l/2, l/2] x [-w/2, w/2] and b is turned by the yaw difference.
     half_a, half_b = 0.5 * a[:, None, 3:5], 0.5 * b[:, None, 3:5]  # (K, 1, 2)
     turn = b[:, 6] - a[:, 6]
-    centre_b = _rotate((b[:, :2] - a[:, :2])[:, None], -a[:, 6])  # (K, 1, 2)
-    corners_b = centre_b + _rotate(_UNIT_CORNERS * half_b, turn)
+    cos_turn, sin_turn = np.cos(turn), np.sin(turn)
+    centre_b = _turn((b[:, :2] - a[:, :2])[:, None], np.cos(a[:, 6]), -np.sin(a[:, 6]))  # (K, 1, 2)
+    corners_b = centre_b + _turn(_UNIT_CORNERS * half_b, cos_turn, sin_turn)
 
     # Edge j of b meets the line of a's edges where coordinate c is +-half_a[c] at t along
     # the edge; `other` is the other coordinate there. Shapes (K, 4 edges, 2 c, 2 signs).
@@ -89,10 +96,9 @@ def _clipped_area(a: Boxes, b: Boxes) -> NDArray[np.float64]:
     level = np.broadcast_to(half_a[..., None] * _SIGNS, (len(a), 4, 2, 2))
     t = (level - corners_b[..., None]) / np.where(steep, edges, 1.0)[..., None]
     other = corners_b[..., ::-1, None] + t * edges[..., ::-1, None]
-    xs = np.concatenate([level[:, :, :1], other[:, :, 1:]], axis=2)
-    ys = np.concatenate([other[:, :, :1], level[:, :, 1:]], axis=2)
-    crossings = np.empty(xs.shape + (2,))
-    crossings[..., 0], crossings[..., 1] = xs, ys
+    crossings = np.empty(t.shape + (2,))  # (K, 4, 2, 2, x and y)
+    crossings[:, :, 0, :, 0], crossings[:, :, 1, :, 1] = level[:, :, 0], level[:, :, 1]
+    crossings[:, :, 1, :, 0], crossings[:, :, 0, :, 1] = other[:, :, 1], other[:, :, 0]
     crossings = crossings.reshape(len(a), _CROSSINGS, 2)
 
     # Every candidate lies on the boundary of a or of b by construction, so it is a vertex
@@ -102,7 +108,7 @@ def _clipped_area(a: Boxes, b: Boxes) -> NDArray[np.float64]:
     tol = _REL_TOL * np.maximum(np.maximum(half_a[..., 0], half_a[..., 1]),
                                 np.maximum(half_b[..., 0], half_b[..., 1]))[..., None]  # (K, 1, 1)
     inside_a = np.abs(points) <= half_a + tol
-    inside_b = np.abs(_rotate(points - centre_b, -turn)) <= half_b + tol
+    inside_b = np.abs(_turn(points - centre_b, cos_turn, -sin_turn)) <= half_b + tol
     valid = inside_a[..., 0] & inside_a[..., 1] & inside_b[..., 0] & inside_b[..., 1]
     valid[:, -_CROSSINGS:] &= np.broadcast_to(steep[..., None], t.shape).reshape(len(a), _CROSSINGS)
 
