@@ -328,7 +328,7 @@ def open_table(path: Path, name: str) -> pq.ParquetFile:
 @dataclass(frozen=True)
 class _ClipTables:
     frames: pa.Table
-    boxes: pa.Table
+    boxes: pq.ParquetFile  # read a row group (FRAMES_PER_GROUP frames) at a time: memory flat in a clip's length
     box_offsets: NDArray[np.int64]  # (F + 1,) first box row of each frame
     points: pq.ParquetFile
     point_offsets: NDArray[np.int64]  # (F + 1,) first point row of each frame in the clip
@@ -342,6 +342,7 @@ class ParquetReader:
         self.most_points = most_points
         self._clip = functools.lru_cache(maxsize=OPEN_CLIPS)(self._load_clip)
         self._last_group: tuple[tuple[str, int] | None, pa.Table | None] = (None, None)
+        self._last_boxes: tuple[tuple[str, int] | None, pa.Table | None] = (None, None)
 
     def _open(self, name: str, clip: str) -> pq.ParquetFile:
         """The table, its declared rows and bytes checked (nothing read yet)."""
@@ -367,16 +368,25 @@ class ParquetReader:
             check_points(
                 self.files.root / table_path("frames", clip), f"frame {worst}", int(counts[worst]), 1, self.most_points
             )
-        boxes = self._read("boxes", clip)
+        boxes = self._open("boxes", clip)
+        try:
+            box_index = boxes.read(columns=["clip", "frame"])
+        except (OSError, pa.ArrowException) as error:
+            raise UserError(f"{self.files.root / table_path('boxes', clip)}: unreadable ({error})") from None
         points = self._open("points", clip)
         path = self.files.root / table_path("points", clip)
         groups = -(-count // POINTS_FRAMES_PER_GROUP)
         if points.metadata.num_row_groups != groups or not np.array_equal(frames["frame"].to_numpy(), np.arange(count)):
             raise UserError(f"{path}: row groups do not match the clip's {count} frames")
-        for name, table in (("frames", frames), ("boxes", boxes)):
+        for name, table in (("frames", frames), ("boxes", box_index)):
             if set(table["clip"].unique().to_pylist()) - {clip}:
                 raise UserError(f"{self.files.root / table_path(name, clip)}: rows of another clip than {clip}")
-        offsets = np.searchsorted(boxes["frame"].to_numpy(), np.arange(count + 1))
+        offsets = np.searchsorted(box_index["frame"].to_numpy(), np.arange(count + 1))
+        box_groups = [boxes.metadata.row_group(g).num_rows for g in range(boxes.metadata.num_row_groups)]
+        box_starts = offsets[np.minimum(np.arange(-(-count // FRAMES_PER_GROUP) + 1) * FRAMES_PER_GROUP, count)]
+        if box_groups != np.diff(box_starts).tolist():
+            raise UserError(f"{self.files.root / table_path('boxes', clip)}: row groups do not hold "
+                            f"{FRAMES_PER_GROUP} frames each")
         sizes = [points.metadata.row_group(g).num_rows for g in range(groups)]
         point_offsets = np.concatenate([[0], np.cumsum(frames["num_points"].to_numpy(), dtype=np.int64)])
         group_starts = point_offsets[np.minimum(np.arange(groups + 1) * POINTS_FRAMES_PER_GROUP, count)]
@@ -396,6 +406,18 @@ class ParquetReader:
             self._last_group = ((clip, group), table)
         return self._last_group[1]
 
+    def _box_group(self, clip: str, group: int) -> pa.Table:
+        """Row group `group` of a clip's boxes (FRAMES_PER_GROUP frames); the last one read is kept."""
+        if self._last_boxes[0] != (clip, group):
+            try:
+                table = self._clip(clip).boxes.read_row_group(group)
+            except (OSError, pa.ArrowException) as error:
+                raise UserError(
+                    f"{self.files.root / table_path('boxes', clip)}: unreadable row group {group} ({error})"
+                ) from None
+            self._last_boxes = ((clip, group), table)
+        return self._last_boxes[1]
+
     def frame(self, clip: str, index: int) -> Frame:
         tables = self._clip(clip)
         group = index // POINTS_FRAMES_PER_GROUP
@@ -409,7 +431,11 @@ class ParquetReader:
                 f"{self.files.root / table_path('points', clip)}: frame {index}'s points are not where the frames "
                 "table counts them"
             )
-        boxes = tables.boxes.slice(tables.box_offsets[index], tables.box_offsets[index + 1] - tables.box_offsets[index])
+        box_group = index // FRAMES_PER_GROUP
+        boxes = self._box_group(clip, box_group).slice(
+            tables.box_offsets[index] - tables.box_offsets[box_group * FRAMES_PER_GROUP],
+            tables.box_offsets[index + 1] - tables.box_offsets[index],
+        )
         frame_row = tables.frames.slice(index, 1).to_pylist()[0]
         box_fields = _box_fields(boxes)
         return Frame(
