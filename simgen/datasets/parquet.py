@@ -341,8 +341,7 @@ class ParquetReader:
         self.files = files
         self.most_points = most_points
         self._clip = functools.lru_cache(maxsize=OPEN_CLIPS)(self._load_clip)
-        self._last_group: tuple[tuple[str, int] | None, pa.Table | None] = (None, None)
-        self._last_boxes: tuple[tuple[str, int] | None, pa.Table | None] = (None, None)
+        self._last: dict[str, tuple[tuple[str, int], pa.Table]] = {}  # table name -> its last row group read
 
     def _open(self, name: str, clip: str) -> pq.ParquetFile:
         """The table, its declared rows and bytes checked (nothing read yet)."""
@@ -394,35 +393,25 @@ class ParquetReader:
             raise UserError(f"{path}: row groups do not hold the points the frames table counts")
         return _ClipTables(frames, boxes, offsets, points, point_offsets)
 
-    def _point_group(self, clip: str, group: int) -> pa.Table:
-        """Row group `group` of a clip's points; the last one read is kept (frames are mostly read in order)."""
-        if self._last_group[0] != (clip, group):
+    def _group(self, name: str, clip: str, group: int) -> pa.Table:
+        """Row group `group` of a clip's `points` or `boxes`; the last one read of each is kept (frames are mostly
+        read in order)."""
+        key, table = self._last.get(name, (None, None))
+        if key != (clip, group):
             try:
-                table = self._clip(clip).points.read_row_group(group)
+                table = getattr(self._clip(clip), name).read_row_group(group)
             except (OSError, pa.ArrowException) as error:
                 raise UserError(
-                    f"{self.files.root / table_path('points', clip)}: unreadable row group {group} ({error})"
+                    f"{self.files.root / table_path(name, clip)}: unreadable row group {group} ({error})"
                 ) from None
-            self._last_group = ((clip, group), table)
-        return self._last_group[1]
-
-    def _box_group(self, clip: str, group: int) -> pa.Table:
-        """Row group `group` of a clip's boxes (FRAMES_PER_GROUP frames); the last one read is kept."""
-        if self._last_boxes[0] != (clip, group):
-            try:
-                table = self._clip(clip).boxes.read_row_group(group)
-            except (OSError, pa.ArrowException) as error:
-                raise UserError(
-                    f"{self.files.root / table_path('boxes', clip)}: unreadable row group {group} ({error})"
-                ) from None
-            self._last_boxes = ((clip, group), table)
-        return self._last_boxes[1]
+            self._last[name] = ((clip, group), table)
+        return table
 
     def frame(self, clip: str, index: int) -> Frame:
         tables = self._clip(clip)
         group = index // POINTS_FRAMES_PER_GROUP
         first = tables.point_offsets[group * POINTS_FRAMES_PER_GROUP]
-        points = self._point_group(clip, group).slice(
+        points = self._group("points", clip, group).slice(
             tables.point_offsets[index] - first, tables.point_offsets[index + 1] - tables.point_offsets[index]
         )
         point_frame = points["frame"]
@@ -432,7 +421,7 @@ class ParquetReader:
                 "table counts them"
             )
         box_group = index // FRAMES_PER_GROUP
-        boxes = self._box_group(clip, box_group).slice(
+        boxes = self._group("boxes", clip, box_group).slice(
             tables.box_offsets[index] - tables.box_offsets[box_group * FRAMES_PER_GROUP],
             tables.box_offsets[index + 1] - tables.box_offsets[index],
         )
