@@ -240,7 +240,12 @@ def test_bad_sources_are_one_line_and_write_nothing(tiny, tmp_path, capsys):
     code, _, err = track(capsys, "--bag", bag, "--ros2-layout", "livox", "--checkpoint", checkpoint, "-o",
                          tmp_path / "out")
     assert code == 2 and err.count("\n") == 1 and "not in the livox point layout" in err
-    assert not (tmp_path / "out").exists()
+    code, _, err = track(capsys, "--dataset", dataset, "--checkpoint", checkpoint, "-o", tmp_path / "out", "--rerun",
+                         tmp_path / "run.txt")
+    assert code == 2 and err.count("\n") == 1 and "ending in .rrd" in err
+    code, _, err = track(capsys, "--bag", bag, "--checkpoint", checkpoint, "-o", tmp_path / "out", "--resume")
+    assert code == 2 and err.count("\n") == 1 and "--resume" in err
+    assert not (tmp_path / "out").exists() and not list(tmp_path.glob("*.rrd")) and not list(tmp_path.glob("run*"))
 
 
 @pytest.mark.engine
