@@ -16,6 +16,7 @@ import yaml
 import simgen.datasets
 from tests.support import ROOT
 from tests.support.detector import tiny_config
+from tests.support.kitti_detections import write_detections
 from train.cli import main
 from train.detector.detections import kitti_lines
 from train.track.outputs import TRACKS_SCHEMA, TRACKS_TOPIC
@@ -96,24 +97,6 @@ def test_track_from_a_checkpoint(tiny, tmp_path, capsys):
     assert len(rows) == 1 and {"samota", "amota", "amotp", "mota", "motp", "ids", "frag", "hota"} <= set(rows[0])
 
 
-def write_detections(dataset_path, folder, rng: np.random.Generator) -> int:
-    """KITTI detection files of every clip from its labels: 5 cm of noise, a tenth of the boxes missing, random
-    scores; returns the number of labelled tracks."""
-    dataset = simgen.datasets.open(dataset_path)
-    ids = set()
-    for clip in dataset.clips:
-        (folder / clip).mkdir(parents=True)
-        for index in range(dataset.num_frames(clip)):
-            frame = dataset.frame(clip, index)
-            ids |= {(clip, i) for i in frame.track_id.tolist()}
-            keep = rng.random(len(frame.boxes)) > 0.1
-            boxes = frame.boxes[keep].copy()
-            boxes[:, :3] += rng.normal(0, 0.05, (len(boxes), 3)).astype(np.float32)
-            scores = rng.uniform(0.3, 1.0, len(boxes)).astype(np.float32)
-            (folder / clip / f"{index:06d}.txt").write_text("".join(f"{line}\n" for line in kitti_lines(boxes, scores)))
-    return len(ids)
-
-
 @pytest.mark.engine
 def test_track_from_kitti_detections_of_the_labels(tiny, tmp_path, capsys):
     """Single-frame detections, associated frame to frame: most players tracked, by about one track each."""
@@ -128,6 +111,41 @@ def test_track_from_kitti_detections_of_the_labels(tiny, tmp_path, capsys):
     assert float(row["mota"]) > 0.5 and int(row["ids"]) < labelled / 4 and int(row["tracks"]) <= 1.5 * labelled
     assert "MOTA" in out and "per 10 minutes of play IDS" in out
     assert float(row["play_s"]) == pytest.approx(2 * FRAMES / 11, abs=0.01)  # both clips' frames, at 11 Hz
+
+
+@pytest.mark.engine
+def test_a_rerun_recording_holds_points_labels_and_the_tracks(tiny, tmp_path, capsys):
+    """Read back through Rerun's own API: each frame's points, labelled boxes and tracks, as the tracks table has
+    them."""
+    import rerun as rr
+
+    dataset, _, _ = tiny
+    write_detections(dataset, tmp_path / "detections", np.random.default_rng(0))
+    code, _, err = track(capsys, "--dataset", dataset, "--detections", tmp_path / "detections", "-o", tmp_path / "out",
+                         "--rerun", tmp_path / "run.rrd")
+    assert code == 0, err
+    root = f"/world/{VAL}"
+    columns = ["frame", f"{root}/points:Points3D:positions", f"{root}/labels:Boxes3D:labels",
+               f"{root}/tracks:Boxes3D:centers", f"{root}/tracks:Boxes3D:labels",
+               f"{root}/trajectories:LineStrips3D:strips"]
+    with rr.server.Server(host="127.0.0.1", datasets={"run": [str(tmp_path / "run.rrd")]}) as server:
+        recorded = server.client().get_dataset("run")
+        entities = {c.entity_path for c in recorded.schema().component_columns()}
+        rows = recorded.reader(index="frame").select(*columns).to_arrow_table().sort_by("frame").to_pydict()
+    assert {"/world/pitch", f"{root}/points", f"{root}/labels", f"{root}/tracks", f"{root}/trajectories"} <= entities
+    table = pq.read_table(tmp_path / "out" / "tracks.parquet").to_pandas()
+    data = simgen.datasets.open(dataset)
+    assert rows["frame"] == list(range(FRAMES))
+    for row, index in enumerate(rows["frame"]):
+        frame = data.frame(VAL, index)
+        np.testing.assert_array_equal(np.array(rows[f"{root}/points:Points3D:positions"][row]), frame.points_m)
+        assert rows[f"{root}/labels:Boxes3D:labels"][row] == [str(t) for t in frame.track_id]
+        tracks = table[(table["clip"] == VAL) & (table["frame"] == index)]
+        assert [label.split()[0] for label in rows[f"{root}/tracks:Boxes3D:labels"][row] or []] == [
+            str(t) for t in tracks["track_id"]]
+        np.testing.assert_allclose(np.array(rows[f"{root}/tracks:Boxes3D:centers"][row] or np.zeros((0, 3))),
+                                   tracks[["x", "y", "z"]].to_numpy(), atol=1e-5)
+        assert len(rows[f"{root}/trajectories:LineStrips3D:strips"][row] or []) == len(tracks)
 
 
 @pytest.mark.engine
@@ -222,7 +240,12 @@ def test_bad_sources_are_one_line_and_write_nothing(tiny, tmp_path, capsys):
     code, _, err = track(capsys, "--bag", bag, "--ros2-layout", "livox", "--checkpoint", checkpoint, "-o",
                          tmp_path / "out")
     assert code == 2 and err.count("\n") == 1 and "not in the livox point layout" in err
-    assert not (tmp_path / "out").exists()
+    code, _, err = track(capsys, "--dataset", dataset, "--checkpoint", checkpoint, "-o", tmp_path / "out", "--rerun",
+                         tmp_path / "run.txt")
+    assert code == 2 and err.count("\n") == 1 and "ending in .rrd" in err
+    code, _, err = track(capsys, "--bag", bag, "--checkpoint", checkpoint, "-o", tmp_path / "out", "--resume")
+    assert code == 2 and err.count("\n") == 1 and "--resume" in err
+    assert not (tmp_path / "out").exists() and not list(tmp_path.glob("*.rrd")) and not list(tmp_path.glob("run*"))
 
 
 @pytest.mark.engine

@@ -23,6 +23,7 @@ import simgen.datasets
 from simgen.atomic import atomic_path, check_output_allowed
 from simgen.cli import dispatch
 from simgen.errors import UserError
+from simgen.output_path import check_output
 from simgen.scenario import Scenario, load_scenario
 from train.checkpoint import load_checkpoint
 from train.config import MAX_ITERATIONS, MAX_SEED, MAX_WORKERS, DetectorConfig, load_config, parse_config
@@ -227,6 +228,12 @@ def _track(args: argparse.Namespace) -> int:
         raise UserError("--bag holds points only: it needs --checkpoint to detect players")
     if args.rate is not None and not args.online:
         raise UserError("--rate paces frames as a sensor delivers them: it needs --online")
+    if args.resume and (args.online or args.bag is not None or args.rerun is not None):
+        raise UserError("--resume goes on with an offline run over a dataset: not with --online, --bag or --rerun")
+    if args.rerun is not None:
+        if args.rerun.suffix != ".rrd" or args.rerun.is_dir():
+            raise UserError(f"--rerun {args.rerun}: expected a file name ending in .rrd")
+        check_output(args.rerun, "file", reads=[p for p in (args.dataset, args.bag) if p is not None])
     tracker = load_tracker_config(args.tracker)
     out, device = _output(args.output), _device(args.device)
     dataset = _dataset(args.dataset) if args.dataset is not None else None
@@ -239,7 +246,8 @@ def _track(args: argparse.Namespace) -> int:
         out, tracker, args.dataset, None if args.bag is None else Path(args.bag), args.ros2_layout, model,
         None if args.tracklets is None else Path(args.tracklets),
         None if args.detections is None else Path(args.detections),
-        _split(args.split), args.online, args.rate, args.queue, rule, device, not args.quiet,
+        _split(args.split), args.online, args.rate, args.queue, rule, device, not args.quiet, resume=args.resume,
+        rerun=args.rerun,
     )
     command = shlex.join(["simgen-train", *sys.argv[1:]]) if sys.argv[1:2] == ["track"] else "simgen-train track"
     result = run_track(options, lambda folder, r: write_metrics(folder, r, tracker.name, command))
@@ -511,6 +519,12 @@ def build_parser() -> argparse.ArgumentParser:
                    "and dropped frames")
     p.add_argument("--queue", type=_count("--queue", 1, 10_000), default=DEFAULT_QUEUE, metavar="N",
                    help=f"with --rate: a frame is dropped when N newer ones wait (default {DEFAULT_QUEUE})")
+    p.add_argument("--rerun", type=Path, metavar="FILE.rrd", help="also a Rerun recording of the points, labels and "
+                   "tracks (one colour per id, trajectories), each clip under world/<clip>; open it with `rerun "
+                   "FILE.rrd`")
+    p.add_argument("--resume", action="store_true", help="go on with a run into OUT that was killed, from its last "
+                   "completed chunk of 100 frames, with the same options (offline, from a dataset); the outputs are "
+                   "those of an uninterrupted run, byte for byte. Without a killed run there, start afresh")
     p.add_argument("--device", choices=("auto", "cpu", "cuda"), default="auto", help="default: CUDA when present")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_track)

@@ -60,9 +60,18 @@ def _half_corners(boxes: Boxes) -> NDArray[np.float64]:
 
 def _rotate(points: NDArray[np.float64], angle: NDArray[np.float64]) -> NDArray[np.float64]:
     """Points (..., M, 2) turned counter-clockwise about the origin by angle (...) radians."""
-    cos, sin = np.cos(angle)[..., None], np.sin(angle)[..., None]
+    return _turn(points, np.cos(angle), np.sin(angle))
+
+
+def _turn(points: NDArray[np.float64], cos: NDArray[np.float64], sin: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Points (..., M, 2) turned counter-clockwise by the angle of cosine and sine (...): cos(-x) and -sin(x) are
+    numpy's cos and sin of -x bit for bit, so a turn back needs no new ones."""
+    cos, sin = cos[..., None], sin[..., None]
     x, y = points[..., 0], points[..., 1]
-    return np.stack([cos * x - sin * y, sin * x + cos * y], axis=-1)
+    turned = np.empty(np.broadcast_shapes(points.shape, cos.shape + (2,)))
+    turned[..., 0] = cos * x - sin * y
+    turned[..., 1] = sin * x + cos * y
+    return turned
 
 
 def bev_corners(boxes: ArrayLike) -> NDArray[np.float64]:
@@ -76,8 +85,9 @@ def _clipped_area(a: Boxes, b: Boxes) -> NDArray[np.float64]:
     # In a's frame a is [-l/2, l/2] x [-w/2, w/2] and b is turned by the yaw difference.
     half_a, half_b = 0.5 * a[:, None, 3:5], 0.5 * b[:, None, 3:5]  # (K, 1, 2)
     turn = b[:, 6] - a[:, 6]
-    centre_b = _rotate((b[:, :2] - a[:, :2])[:, None], -a[:, 6])  # (K, 1, 2)
-    corners_b = centre_b + _rotate(_UNIT_CORNERS * half_b, turn)
+    cos_turn, sin_turn = np.cos(turn), np.sin(turn)
+    centre_b = _turn((b[:, :2] - a[:, :2])[:, None], np.cos(a[:, 6]), -np.sin(a[:, 6]))  # (K, 1, 2)
+    corners_b = centre_b + _turn(_UNIT_CORNERS * half_b, cos_turn, sin_turn)
 
     # Edge j of b meets the line of a's edges where coordinate c is +-half_a[c] at t along
     # the edge; `other` is the other coordinate there. Shapes (K, 4 edges, 2 c, 2 signs).
@@ -86,16 +96,20 @@ def _clipped_area(a: Boxes, b: Boxes) -> NDArray[np.float64]:
     level = np.broadcast_to(half_a[..., None] * _SIGNS, (len(a), 4, 2, 2))
     t = (level - corners_b[..., None]) / np.where(steep, edges, 1.0)[..., None]
     other = corners_b[..., ::-1, None] + t * edges[..., ::-1, None]
-    xs = np.concatenate([level[:, :, :1], other[:, :, 1:]], axis=2)
-    ys = np.concatenate([other[:, :, :1], level[:, :, 1:]], axis=2)
-    crossings = np.stack([xs, ys], axis=-1).reshape(len(a), _CROSSINGS, 2)
+    crossings = np.empty(t.shape + (2,))  # (K, 4, 2, 2, x and y)
+    crossings[:, :, 0, :, 0], crossings[:, :, 1, :, 1] = level[:, :, 0], level[:, :, 1]
+    crossings[:, :, 1, :, 0], crossings[:, :, 0, :, 1] = other[:, :, 1], other[:, :, 0]
+    crossings = crossings.reshape(len(a), _CROSSINGS, 2)
 
     # Every candidate lies on the boundary of a or of b by construction, so it is a vertex
     # or a boundary point of the intersection exactly when it lies in both rectangles.
     points = np.concatenate([_UNIT_CORNERS * half_a, corners_b, crossings], axis=1)  # (K, 24, 2)
-    tol = _REL_TOL * np.maximum(half_a.max(axis=-1), half_b.max(axis=-1))[..., None]  # (K, 1, 1)
-    valid = (np.abs(points) <= half_a + tol).all(axis=-1)
-    valid &= (np.abs(_rotate(points - centre_b, -turn)) <= half_b + tol).all(axis=-1)
+    # Reductions over the last axis of 2 are spelled out: numpy's are slow on tiny axes.
+    tol = _REL_TOL * np.maximum(np.maximum(half_a[..., 0], half_a[..., 1]),
+                                np.maximum(half_b[..., 0], half_b[..., 1]))[..., None]  # (K, 1, 1)
+    inside_a = np.abs(points) <= half_a + tol
+    inside_b = np.abs(_turn(points - centre_b, cos_turn, -sin_turn)) <= half_b + tol
+    valid = inside_a[..., 0] & inside_a[..., 1] & inside_b[..., 0] & inside_b[..., 1]
     valid[:, -_CROSSINGS:] &= np.broadcast_to(steep[..., None], t.shape).reshape(len(a), _CROSSINGS)
 
     count = valid.sum(axis=1)
@@ -108,8 +122,9 @@ def _clipped_area(a: Boxes, b: Boxes) -> NDArray[np.float64]:
     order = np.argsort(key, axis=1)
     # Missing vertices sort last; repeat the last real vertex there (zero-length edges).
     last = np.maximum(count - 1, 0)[:, None]
-    order = np.take_along_axis(order, np.minimum(np.arange(_CANDIDATES), last), axis=1)
-    ring = np.take_along_axis(rel, order[..., None], axis=1)
+    rows = np.arange(len(a))[:, None]
+    order = order[rows, np.minimum(np.arange(_CANDIDATES), last)]
+    ring = rel[rows, order]
     after = ring[:, _RING_NEXT]
     return 0.5 * np.sum(ring[..., 0] * after[..., 1] - ring[..., 1] * after[..., 0], axis=1)
 
@@ -138,7 +153,8 @@ def _iou(a: Boxes, b: Boxes, three_d: bool) -> NDArray[np.float64]:
     pairs = np.nonzero(near)
     inter = np.zeros(shape)
     inter[pairs] = _clipped_area(
-        np.broadcast_to(a, shape + (BOX_DIM,))[pairs], np.broadcast_to(b, shape + (BOX_DIM,))[pairs]
+        (a if a.shape[:-1] == shape else np.broadcast_to(a, shape + (BOX_DIM,)))[pairs],
+        (b if b.shape[:-1] == shape else np.broadcast_to(b, shape + (BOX_DIM,)))[pairs],
     )
     if three_d:
         inter[pairs] *= height[pairs]
@@ -190,13 +206,14 @@ def _corner_spread_xy(a: Boxes, b: Boxes) -> NDArray[np.float64]:
         for j, y in enumerate(ys):
             z = e[..., i, 0] * f[..., j, 0] + e[..., i, 1] * f[..., j, 1]
             best = np.maximum(best, np.maximum(np.abs(x - y) - z, np.abs(x + y) + z))
-    radii = np.sum(e[..., 0, :] ** 2, axis=-1) + np.sum(f[..., 0, :] ** 2, axis=-1)
+    radii = (e[..., 0, 0] ** 2 + e[..., 0, 1] ** 2) + (f[..., 0, 0] ** 2 + f[..., 0, 1] ** 2)
     return radii + dx * dx + dy * dy + 2.0 * best
 
 
 def _diou(a: Boxes, b: Boxes) -> NDArray[np.float64]:
     """DIoU of broadcastable box arrays a, b (..., 7), e.g. (P, 1, 7) and (1, Q, 7)."""
-    centre_gap = np.sum((a[..., :3] - b[..., :3]) ** 2, axis=-1)
+    gap = a[..., :3] - b[..., :3]
+    centre_gap = gap[..., 0] ** 2 + gap[..., 1] ** 2 + gap[..., 2] ** 2
     (bottom_a, top_a), (bottom_b, top_b) = _z_range(a), _z_range(b)
     spread_z = np.maximum(np.abs(top_a - bottom_b), np.abs(top_b - bottom_a))
     spread = _corner_spread_xy(a, b) + spread_z * spread_z

@@ -67,36 +67,81 @@ def _clip_counts(gt_clip: Clip, track_clip: TrackedClip, similarity_of: Similari
     gt_ids, n_gt = _dense_ids([f.ids for f in gt_clip])
     track_ids, n_track = _dense_ids([f.ids for f in track_clip])
     similarity = [similarity_of(g.boxes, t.boxes) for g, t in zip(gt_clip, track_clip)]
-    potential = np.zeros((n_gt, n_track))
-    gt_count, track_count = np.zeros((n_gt, 1)), np.zeros((1, n_track))
+    counts = ClipCounts(n_gt, n_track)
     for sim, g, t in zip(similarity, gt_ids, track_ids):
+        counts.align(sim, g, t)
+    counts.aligned()
+    for sim, g, t in zip(similarity, gt_ids, track_ids):
+        counts.match(sim, g, t)
+    return counts.counts()
+
+
+class ClipCounts:
+    """One clip's HOTA counts in two passes over its frames, in order: `align` each frame, `aligned`, then `match`
+    each frame again; `counts`. Frames are (G, T) similarities with dense gt (G,) and track (T,) indices.
+
+    Only the id pairs that ever meet are kept (a dict by pair, not an n_gt x n_track matrix): memory grows with the
+    pairs of ids alive together, not with the square of a long clip's ids. Every pair's sums are made in frame
+    order, as a dense matrix would make them.
+    """
+
+    def __init__(self, n_gt: int, n_track: int) -> None:
+        self.n_track = n_track
+        self.potential: dict[int, float] = {}  # pair key g * n_track + t -> summed per-frame alignment
+        self.gt_count, self.track_count = np.zeros(n_gt), np.zeros(n_track)
+        self.tp, self.fn, self.fp, self.loc = (np.zeros(len(ALPHAS)) for _ in range(4))
+        self.matches: dict[int, NDArray[np.float64]] = {}  # pair key -> per alpha, frames matched
+
+    def _keys(self, g: NDArray[np.intp], t: NDArray[np.intp]) -> NDArray[np.int64]:
+        return g.astype(np.int64)[:, None] * self.n_track + t[None, :]
+
+    def align(self, sim: NDArray[np.float64], g: NDArray[np.intp], t: NDArray[np.intp]) -> None:
         denominator = sim.sum(0)[None, :] + sim.sum(1)[:, None] - sim
-        potential[g[:, None], t[None, :]] += np.divide(
-            sim, denominator, out=np.zeros_like(sim), where=denominator > _EPS
-        )
-        gt_count[g] += 1
-        track_count[0, t] += 1
-    alignment = potential / np.maximum(gt_count + track_count - potential, _EPS)
-    tp, fn, fp, loc = (np.zeros(len(ALPHAS)) for _ in range(4))
-    matches = np.zeros((len(ALPHAS), n_gt, n_track))
-    for sim, g, t in zip(similarity, gt_ids, track_ids):
-        rows, cols = linear_sum_assignment(-(alignment[g[:, None], t[None, :]] * sim))
-        for a, alpha in enumerate(ALPHAS):
-            ok = sim[rows, cols] >= alpha - _EPS
-            tp[a] += ok.sum()
-            fn[a] += len(g) - ok.sum()
-            fp[a] += len(t) - ok.sum()
-            loc[a] += sim[rows[ok], cols[ok]].sum()
-            matches[a, g[rows[ok]], t[cols[ok]]] += 1
-    pair_score = matches / np.maximum(1, gt_count + track_count - matches)
-    return _Counts(tp, fn, fp, np.sum(matches * pair_score, axis=(1, 2)), loc)
+        share = np.divide(sim, denominator, out=np.zeros_like(sim), where=denominator > _EPS)
+        some = share != 0.0  # adding 0 changes no sum
+        potential = self.potential
+        for key, value in zip(self._keys(g, t)[some].tolist(), share[some].tolist()):
+            potential[key] = potential.get(key, 0.0) + value
+        self.gt_count[g] += 1
+        self.track_count[t] += 1
+
+    def aligned(self) -> None:
+        gt_count, track_count, n = self.gt_count, self.track_count, self.n_track
+        self.alignment = {key: value / max(gt_count[key // n] + track_count[key % n] - value, _EPS)
+                          for key, value in self.potential.items()}
+
+    def match(self, sim: NDArray[np.float64], g: NDArray[np.intp], t: NDArray[np.intp]) -> None:
+        keys = self._keys(g, t)
+        alignment = np.array([self.alignment.get(k, 0.0) for k in keys.ravel().tolist()]).reshape(keys.shape)
+        rows, cols = linear_sum_assignment(-(alignment * sim))
+        matched = sim[rows, cols]
+        ok = matched[None, :] >= ALPHAS[:, None] - _EPS  # (alphas, matched pairs)
+        hits = ok.sum(axis=1)
+        self.tp += hits
+        self.fn += len(g) - hits
+        self.fp += len(t) - hits
+        self.loc += np.where(ok, matched[None, :], 0.0).sum(axis=1)
+        for key, column in zip(keys[rows, cols].tolist(), ok.T):
+            if column.any():
+                self.matches[key] = self.matches.get(key, 0.0) + column
+
+    def counts(self) -> _Counts:
+        association = np.zeros(len(ALPHAS))
+        for key, matches in self.matches.items():
+            union = self.gt_count[key // self.n_track] + self.track_count[key % self.n_track] - matches
+            association += matches * (matches / np.maximum(1, union))
+        return _Counts(self.tp, self.fn, self.fp, association, self.loc)
 
 
 def hota(ground_truth: Sequence[Clip], tracks: Sequence[TrackedClip], similarity: Similarity = iou_3d) -> Hota:
     """HOTA and its parts over clips of ground truth and tracker output, frame for frame."""
     if len(ground_truth) != len(tracks) or any(len(g) != len(t) for g, t in zip(ground_truth, tracks)):
         raise ValueError("ground truth and tracks differ in number of clips or frames")
-    counts = [_clip_counts(g, t, similarity) for g, t in zip(ground_truth, tracks)]
+    return combined([_clip_counts(g, t, similarity) for g, t in zip(ground_truth, tracks)])
+
+
+def combined(counts: Sequence[_Counts]) -> Hota:
+    """HOTA of clips from their counts, as TrackEval combines sequences."""
     tp, fn, fp = (sum(getattr(c, name) for c in counts) for name in ("tp", "fn", "fp"))
     assa = sum(c.association for c in counts) / np.maximum(1, tp)
     loca = np.maximum(1e-10, sum(c.similarity for c in counts)) / np.maximum(1e-10, tp)

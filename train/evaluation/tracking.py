@@ -172,8 +172,9 @@ class _Counter:
         good = iou[rows, cols] >= self.min_iou
         return self.gt_start[frame] + rows[good], self.track_start[frame] + kept[cols[good]]
 
-    def __call__(self, threshold: float) -> tuple[ClearMot, list[float]]:
-        """Counts with the tracks whose mean score is at least threshold, and the true positives' scores."""
+    def matches(self, threshold: float) -> tuple[NDArray[np.bool_], NDArray[np.int64], NDArray[np.int64], float]:
+        """With the tracks whose mean score is at least threshold: which track slots are kept, the ground-truth and
+        track slots of the matched pairs, and their summed IoU."""
         keep = self.track_scores >= threshold
         kept = keep[self.pair_track]
         gt_degree = np.bincount(self.pair_gt[kept], minlength=self.gt_start[-1])
@@ -189,6 +190,11 @@ class _Counter:
             float(self.frames[k].iou[g - self.gt_start[k], s - self.track_start[k]].sum())
             for k, (g, s) in zip(np.flatnonzero(hard), solved)
         )
+        return keep, gt_slots, track_slots, iou_sum
+
+    def __call__(self, threshold: float) -> tuple[ClearMot, list[float]]:
+        """Counts with the tracks whose mean score is at least threshold, and the true positives' scores."""
+        keep, gt_slots, track_slots, iou_sum = self.matches(threshold)
         assigned = np.full(self.gt_start[-1], -1, np.int64)
         assigned[gt_slots] = self.track_ids[track_slots]
         ids, frag = _switches_and_fragments_laid_out(assigned[self.order], self.first)

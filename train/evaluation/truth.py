@@ -28,3 +28,12 @@ class TruthIds:
         ids = [self.identity.setdefault((track, self.segment[track]), len(self.identity))
                for track in track_id.tolist()]
         return GroundTruthFrame(boxes, np.array(ids, np.int64))
+
+    def state(self) -> dict[str, NDArray[np.int64]]:
+        """The identities given so far, as plain arrays (a resumed run's `restore`)."""
+        return {"truth_identity": np.array([(t, s, i) for (t, s), i in self.identity.items()], np.int64).reshape(-1, 3),
+                "truth_segment": np.array(list(self.segment.items()), np.int64).reshape(-1, 2)}
+
+    def restore(self, state: dict[str, NDArray[np.int64]]) -> None:
+        self.identity = {(t, s): i for t, s, i in state["truth_identity"].tolist()}
+        self.segment = dict(map(tuple, state["truth_segment"].tolist()))

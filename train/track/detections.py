@@ -1,5 +1,6 @@
 """Detections made elsewhere, as the tracker's per-frame `Tracklets`: KITTI object files with a score, or
-tracklet files of `simgen-train detect`, checked whole before anything is tracked.
+tracklet files of `simgen-train detect`, checked whole before anything is tracked (KITTI files read again frame
+by frame as they are tracked: memory flat in a clip's length).
 
 KITTI: `DIR/<clip>/<frame:06d>.txt`, one file per frame (a frame without a file has no detections),
 16 columns a line: type, truncated, occluded, alpha, the 2D box (4), h w l, x y z (the bottom centre in
@@ -78,40 +79,58 @@ def parse_kitti(text: str, where: str) -> tuple[NDArray[np.float32], NDArray[np.
     return boxes, scores.astype(np.float32)
 
 
-def read_kitti_clip(folder: Path, frames: int) -> dict[int, Tracklets]:
-    """A clip's KITTI detection files (`folder/<frame:06d>.txt`, frames 0 .. frames - 1) as tracklets by frame."""
-    found = {}
-    for path in sorted(folder.iterdir()):
-        match = FRAME_FILE.match(path.name)
-        if not match or not path.is_file():
-            raise UserError(f"{path}: not a detection file (expected <frame:06d>.txt)")
-        frame = int(match.group(1))
-        if frame >= frames:
-            raise UserError(f"{path}: frame {frame} beyond the clip's {frames} frames")
-        try:
-            text = path.read_text()
-        except UnicodeDecodeError:
-            raise UserError(f"{path}: not a text file") from None
-        found[frame] = still_tracklets(*parse_kitti(text, str(path)))
-    return found
+def _read_kitti(path: Path) -> Tracklets:
+    try:
+        text = path.read_text()
+    except UnicodeDecodeError:
+        raise UserError(f"{path}: not a text file") from None
+    return still_tracklets(*parse_kitti(text, str(path)))
 
 
-def read_tracklet_clip(path: Path, clip: str, frames: int) -> dict[int, Tracklets]:
-    """A `simgen-train detect` tracklet file of clip `clip` (frames 0 .. frames - 1) as tracklets by frame."""
-    data: ClipTracklets = read_tracklets(path)
-    if data.clip != clip:
-        raise UserError(f"{path}: holds clip {data.clip!r}, not {clip!r}")
-    if data.boxes.ndim != 3 or data.boxes.shape[1:] not in ((1, 7), (TRACKLET_LEN, 7)) or \
-            len(data.scores) != len(data.frame) or len(data.boxes) != len(data.frame):
-        raise UserError(f"{path}: boxes of shape {data.boxes.shape}, expected (N, 1 or 3, 7) with a frame and "
-                        "score each")
-    if (np.diff(data.frame) < 0).any():
-        raise UserError(f"{path}: frames out of order")
-    if len(data.frame) and not 0 <= data.frame[0] <= data.frame[-1] < frames:
-        raise UserError(f"{path}: frames {data.frame[0]}-{data.frame[-1]} outside the clip's 0-{frames - 1}")
-    check_boxes(data.boxes, data.scores, str(path))
-    found = {}
-    for frame in np.unique(data.frame).tolist():
-        boxes, scores = data.at(frame)
-        found[frame] = as_tracklets(boxes, scores)
-    return found
+class KittiClip:
+    """A clip's KITTI detection files (`folder/<frame:06d>.txt`, frames 0 .. frames - 1): all checked when
+    opened, each read again when its frame is asked for (`get`), so that memory stays flat in the clip's length."""
+
+    def __init__(self, folder: Path, frames: int) -> None:
+        self.paths: dict[int, Path] = {}
+        for path in sorted(folder.iterdir()):
+            match = FRAME_FILE.match(path.name)
+            if not match or not path.is_file():
+                raise UserError(f"{path}: not a detection file (expected <frame:06d>.txt)")
+            frame = int(match.group(1))
+            if frame >= frames:
+                raise UserError(f"{path}: frame {frame} beyond the clip's {frames} frames")
+            _read_kitti(path)
+            self.paths[frame] = path
+
+    def get(self, frame: int, default: Tracklets) -> Tracklets:
+        """The frame's detections as still tracklets; `default` where it has no file."""
+        path = self.paths.get(frame)
+        return default if path is None else _read_kitti(path)
+
+
+class TrackletClip:
+    """A `simgen-train detect` tracklet file of clip `clip` (frames 0 .. frames - 1), checked whole; `get`: a
+    frame's tracklets."""
+
+    def __init__(self, path: Path, clip: str, frames: int) -> None:
+        data: ClipTracklets = read_tracklets(path)
+        if data.clip != clip:
+            raise UserError(f"{path}: holds clip {data.clip!r}, not {clip!r}")
+        if data.boxes.ndim != 3 or data.boxes.shape[1:] not in ((1, 7), (TRACKLET_LEN, 7)) or \
+                len(data.scores) != len(data.frame) or len(data.boxes) != len(data.frame):
+            raise UserError(f"{path}: boxes of shape {data.boxes.shape}, expected (N, 1 or 3, 7) with a frame and "
+                            "score each")
+        if (np.diff(data.frame) < 0).any():
+            raise UserError(f"{path}: frames out of order")
+        if len(data.frame) and not 0 <= data.frame[0] <= data.frame[-1] < frames:
+            raise UserError(f"{path}: frames {data.frame[0]}-{data.frame[-1]} outside the clip's 0-{frames - 1}")
+        check_boxes(data.boxes, data.scores, str(path))
+        self.data = data
+
+    def get(self, frame: int, default: Tracklets) -> Tracklets:
+        """The frame's tracklets; `default` where it has none."""
+        start, stop = np.searchsorted(self.data.frame, [frame, frame + 1])
+        if start == stop:
+            return default
+        return as_tracklets(self.data.boxes[start:stop], self.data.scores[start:stop])

@@ -2,7 +2,9 @@
 replaces OUT's files only once the whole run has succeeded (bad input half-way leaves OUT as it was):
 
 - `kitti/<clip>.txt`: KITTI tracking results (train.evaluation.kitti's lines, numbered by the clip's frame);
-- `tracks.parquet`: the `tracks` table, a row per track and frame (TRACKS_SCHEMA, units in field metadata);
+- `tracks.parquet`: the `tracks` table, a row per track and frame (TRACKS_SCHEMA, units in field metadata), a row
+  group per ROW_GROUP_FRAMES frames of a clip, each first written alone under `.parts/` (what a resumed run keeps)
+  and gathered into the table at the end;
 - `mcap/<clip>/`: a ROS 2 bag (simgen.datasets.formats.mcap's writer: `<clip>.mcap` and rosbag2's metadata.yaml)
   with the frame's points and labels as simgen writes them, and `/simgen/tracks`: per frame DELETEALL, then
   per track a CUBE (namespace `tracks`, id = track id, one colour per id, dying tracks faint), its id as
@@ -116,20 +118,31 @@ def track_rows(clip: str, index: int, time_s: float, tracked: TrackedFrame) -> d
 class TrackOutputs:
     """The run's files, written into `staging` clip by clip; `publish` moves them into OUT."""
 
-    def __init__(self, staging: Path, sensors: Sequence, layout: PointLayout, bags: bool) -> None:
+    def __init__(self, staging: Path, sensors: Sequence, layout: PointLayout, bags: bool, recording=None) -> None:
+        """`recording`: where every final frame goes too (train.track.rerun_tracks.RerunTracks), or None."""
         self.staging, self.sensors, self.layout, self.bags = staging, sensors, layout, bags
-        (staging / "kitti").mkdir(parents=True)
+        self.recording = recording
+        (staging / "kitti").mkdir(exist_ok=True)
         if bags:
-            (staging / "mcap").mkdir()
-        self.table = pq.ParquetWriter(staging / "tracks.parquet", TRACKS_SCHEMA)
+            (staging / "mcap").mkdir(exist_ok=True)
+        self.parts = staging / ".parts"
+        self.parts.mkdir(exist_ok=True)
         self.files = contextlib.ExitStack()
         self.clip: str | None = None
+        self.clips = 0  # started
 
     def start_clip(self, clip: str) -> None:
+        """Start (or start again: a resumed run) the next clip's files."""
         self.clip, self.rows, self.frames = clip, {name: [] for name in TRACKS_SCHEMA.names}, 0
+        for part in self.parts.glob(f"{self.clips:04d}_*.parquet"):
+            part.unlink()
         self.kitti = self.files.enter_context(open(self.staging / "kitti" / f"{clip}.txt", "w"))
         if self.bags:
+            shutil.rmtree(self.staging / "mcap" / clip, ignore_errors=True)
             self.bag = ClipBag(self.staging / "mcap" / clip, self.sensors, self.layout)
+        if self.recording is not None:
+            self.recording.start_clip(clip)
+        self.clips += 1
 
     def add(self, frame: Frame, tracked: TrackedFrame) -> None:
         """One final frame of the current clip: the dataset's (or bag's) frame and its tracks."""
@@ -141,10 +154,13 @@ class TrackOutputs:
             self._write_rows()
         if self.bags:
             self.bag.add(frame, tracked)
+        if self.recording is not None:
+            self.recording.add(frame, tracked)
 
     def _write_rows(self) -> None:
         if self.rows["clip"]:
-            self.table.write_table(pa.table(self.rows, schema=TRACKS_SCHEMA))
+            part = self.parts / f"{self.clips - 1:04d}_{(self.frames - 1) // ROW_GROUP_FRAMES:06d}.parquet"
+            pq.write_table(pa.table(self.rows, schema=TRACKS_SCHEMA), part)
         self.rows = {name: [] for name in TRACKS_SCHEMA.names}
 
     def end_clip(self) -> None:
@@ -154,18 +170,26 @@ class TrackOutputs:
         self.files.close()
 
     def close(self) -> None:
-        self.table.close()
+        """The tracks table from its parts, a row group each, in order; the parts removed."""
+        with pq.ParquetWriter(self.staging / "tracks.parquet", TRACKS_SCHEMA) as table:
+            for part in sorted(self.parts.glob("*.parquet")):
+                table.write_table(pq.read_table(part, schema=TRACKS_SCHEMA))
+        shutil.rmtree(self.parts)
+
+
+PARTIAL = ".track-partial"  # the staging folder in OUT: what a killed run leaves for `--resume`
 
 
 @contextlib.contextmanager
-def staged(out: Path) -> Iterator[Path]:
-    """A staging folder in OUT; on success its files replace OUT's, on any error it is removed (and so is OUT,
-    if this made it)."""
+def staged(out: Path, resume: bool) -> Iterator[Path]:
+    """A staging folder in OUT (an interrupted run's, kept with `resume`); on success its files replace OUT's, on
+    any error it is removed (and so is OUT, if this made it)."""
     made = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
-    staging = out / f".track-{os.getpid()}"
-    shutil.rmtree(staging, ignore_errors=True)
-    staging.mkdir()
+    staging = out / PARTIAL
+    if not resume:
+        shutil.rmtree(staging, ignore_errors=True)
+    staging.mkdir(exist_ok=True)
     try:
         yield staging
         for path in sorted(staging.iterdir()):

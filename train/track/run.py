@@ -24,6 +24,7 @@ tracked.
 from __future__ import annotations
 
 import time
+from array import array
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,11 +44,13 @@ from train.detector.inference import predict
 from train.detector.model import Detector
 from train.detector.postprocess import tracklets as decode_tracklets
 from train.detector.streaming import WindowFeatures, head
-from train.evaluation.hota import Hota, centre_hota, hota
-from train.evaluation.tracking import TrackingMetrics, evaluate_tracking
+from train.evaluation.frame_log import CHUNK_FRAMES, FrameLog
+from train.evaluation.hota import Hota
+from train.evaluation.tracking import TrackingMetrics
 from train.evaluation.truth import TruthIds
 from train.study.tracklet_filter import TrackletFilter, filter_tracklets
-from train.track.detections import as_tracklets, read_kitti_clip, read_tracklet_clip
+from train.track import resume
+from train.track.detections import KittiClip, TrackletClip, as_tracklets
 from train.track.frames import BagFrames, Labels, Window, frame_labels
 from train.track.latency import LatencyLog, Pacer, Stopwatch
 from train.track.outputs import TrackOutputs, staged
@@ -84,6 +87,8 @@ class TrackOptions:
     device: torch.device
     progress: bool
     clock: Callable[[], float] = time.perf_counter  # of the stage latencies (wall time)
+    resume: bool = False  # go on from an interrupted run's state in OUT (offline, from a dataset)
+    rerun: Path | None = None  # a Rerun recording of points, labels and tracks (train.track.rerun_tracks)
 
 
 @dataclass(frozen=True)
@@ -210,13 +215,14 @@ class _Run:
                 self.dataset.verify()
             self.sensors = list(self.dataset.manifest.sensors)
             self.layout = SIMGEN_LAYOUT if self.dataset.plugin.carries.point_fields else XYZI_LAYOUT
-        self.found: dict[str, dict[int, Tracklets]] = {}
+        # each clip's detections by frame: KITTI files and tracklet files read as the frames come (flat memory)
+        self.found: dict[str, dict[int, Tracklets] | KittiClip | TrackletClip] = {}
         if options.detections is not None:
             self.clips = _detection_folders(options.detections, self.dataset, self.clips, "")
-            self.found = {c: read_kitti_clip(options.detections / c, self.dataset.num_frames(c)) for c in self.clips}
+            self.found = {c: KittiClip(options.detections / c, self.dataset.num_frames(c)) for c in self.clips}
         elif options.tracklets is not None:
             self.clips = _detection_folders(options.tracklets, self.dataset, self.clips, ".npz")
-            self.found = {c: read_tracklet_clip(options.tracklets / f"{c}.npz", c, self.dataset.num_frames(c))
+            self.found = {c: TrackletClip(options.tracklets / f"{c}.npz", c, self.dataset.num_frames(c))
                           for c in self.clips}
         model = options.model
         self.first = TRACKLET_FRAMES - 1 if model is not None or options.tracklets is not None else 0
@@ -227,11 +233,13 @@ class _Run:
         self.k = 0  # frames delivered so far, clip after clip
         self.play_s = 0.0  # game time of the frames tracked (their count x their period), clip after clip
         self.detector = _Detector(model, options.device) if model is not None and (options.online or self.bag) else None
+        self.resumable = not options.online and self.bag is None  # a state saved every chunk (train.track.resume)
+        self.staging: Path | None = None
 
-    def frames(self, clip: str, window: Window) -> Iterator[tuple[Frame, bool, Stopwatch]]:
-        """The clip's frames in order, each read once it arrives (`Pacer`) and added to the window: (frame,
-        whether it was taken rather than dropped, its stopwatch with the read charged)."""
-        source = self.bag.frames() if self.bag is not None else iter(range(self.dataset.num_frames(clip)))
+    def frames(self, clip: str, window: Window, start: int = 0) -> Iterator[tuple[Frame, bool, Stopwatch]]:
+        """The clip's frames in order from `start`, each read once it arrives (`Pacer`) and added to the window:
+        (frame, whether it was taken rather than dropped, its stopwatch with the read charged)."""
+        source = self.bag.frames() if self.bag is not None else iter(range(start, self.dataset.num_frames(clip)))
         while True:
             taken = self.pacer.wait(self.k)
             watch = Stopwatch(self.options.clock)
@@ -259,40 +267,92 @@ class _Run:
             if sample.clip in self.clips:
                 self.found.setdefault(sample.clip, {})[sample.index] = as_tracklets(found.boxes, found.scores)
 
-    def run(self, outputs: TrackOutputs) -> tuple[list[list[GroundTruthFrame]] | None, list[list[TrackedFrame]]]:
-        """Track every clip into `outputs`; returns the ground truth (None without labels) and tracks per clip."""
+    def fingerprint(self) -> dict:
+        """What a resumed run must share with the interrupted one (JSON)."""
+        o = self.options
+        return {"dataset": str(self.root), "clips": self.clips, "tracker": o.tracker.model_dump(mode="json"),
+                "source": [str(o.tracklets), str(o.detections), o.model is not None], "first": self.first,
+                "rule": None if o.rule is None else [o.rule.min_score, o.rule.nms, o.rule.nms_threshold],
+                "resumable": self.resumable}
+
+    def run(self, outputs: TrackOutputs, log: FrameLog, resumed: tuple[dict, dict] | None) -> None:
+        """Track every clip into `outputs`, their ground truth and tracks into `log` (the metrics need them while
+        every frame has labels: `labelled`); from the state of an interrupted run if `resumed`."""
         progress = tqdm(total=self.total_frames(), desc=f"track {self.options.tracker.name}", unit="frame",
                         disable=not self.options.progress, dynamic_ncols=True)
-        clips = [self.clip(clip, outputs, progress) for clip in self.clips]
+        self.labelled, self.tracked, self.track_ids, first_clip = True, 0, 0, 0
+        if resumed is not None:
+            meta, arrays = resumed
+            self.labelled, self.tracked, self.track_ids = meta["labelled"], meta["tracked"], meta["track_ids"]
+            self.k, self.play_s, first_clip = meta["k"], meta["play_s"], meta["clip"]
+            log.restore(arrays)
+            outputs.clips = first_clip
+            progress.update(sum(max(0, self.dataset.num_frames(c) - self.first) for c in self.clips[:first_clip])
+                            + max(0, meta["next"] - self.first))
+        for c in range(first_clip, len(self.clips)):
+            going_on = resumed is not None and c == first_clip and resumed[0]["next"] > 0
+            self.clip(c, outputs, log, progress, resumed if going_on else None)
         progress.close()
-        truth = None if any(t is None for t, _ in clips) else [t for t, _ in clips]
-        return truth, [tracked for _, tracked in clips]
 
-    def clip(self, clip: str, outputs: TrackOutputs, progress: tqdm
-             ) -> tuple[list[GroundTruthFrame] | None, list[TrackedFrame]]:
-        """One clip through a fresh tracker, its final frames written; its ground truth (None: no labels) and
-        tracks."""
+    def checkpoint(self, log: FrameLog, clip: int, next_index: int, delivered: int, arrays: dict) -> None:
+        """The run's state (train.track.resume) at the end of a chunk of clip `clip`: `next_index` the next frame to
+        track (0: the clip has not started), `delivered` the frames delivered before it."""
+        if self.resumable:
+            meta = {"options": self.fingerprint(), "clip": clip, "next": next_index, "k": delivered,
+                    "tracked": self.tracked, "track_ids": self.track_ids, "play_s": self.play_s,
+                    "labelled": self.labelled}
+            resume.save(self.staging, meta, {**log.state(), **arrays})
+
+    def clip(self, c: int, outputs: TrackOutputs, log: FrameLog, progress: tqdm,
+             resumed: tuple[dict, dict] | None = None) -> None:
+        """Clip `c` through a fresh tracker (or one restored: `resumed`), its final frames written and logged."""
+        clip = self.clips[c]
         tracker, held = make_tracker(self.options.tracker), HeldFrames()
         ids = _Truth(self.truth_data, self.options.model is not None)
-        truth: list[GroundTruthFrame] | None = []
-        tracks: list[TrackedFrame] = []
-        times: list[float] = []
+        track_ids: set[int] = set()
+        times = array("d")  # 8 bytes a frame, for the median period
+        window = Window(Path(self.root), None if self.dataset is None else self.dataset.frame)
 
-        def final(done: list[tuple[object, TrackedFrame]]) -> None:
-            nonlocal truth
+        def final(done: list[tuple[Frame, TrackedFrame]], log_it: bool = True) -> None:
             for frame, tracked in done:
                 outputs.add(frame, tracked)
-                labels = self.labels(frame)
-                if labels is None:
-                    truth = None
-                elif truth is not None:
-                    truth.append(ids.frame(labels))
-                tracks.append(tracked)
+                if log_it:
+                    labels = self.labels(frame)
+                    self.labelled &= labels is not None
+                    log.add(ids.frame(labels) if self.labelled else None, tracked)
+                track_ids.update(tracked.ids.tolist())
                 times.append(frame.label_time_s)
 
+        def state() -> dict:
+            held_frames = [tracked for _, tracked in held.frames]
+            return {**tracker.state(), **ids.ids.state(), "clip_times": np.frombuffer(times),
+                    "clip_track_ids": np.array(sorted(track_ids), np.int64),
+                    "held_index": np.array([frame.index for frame, _ in held.frames], np.int64),
+                    "held_count": np.array([len(t.ids) for t in held_frames], np.int64),
+                    "held_boxes": np.concatenate([t.boxes for t in held_frames] or [np.zeros((0, 7))]),
+                    "held_ids": np.concatenate([t.ids for t in held_frames] or [np.zeros(0, np.int64)]),
+                    "held_scores": np.concatenate([t.scores for t in held_frames] or [np.zeros(0)]),
+                    "held_states": np.concatenate([t.states for t in held_frames] or [np.zeros(0, np.int8)])}
+
         outputs.start_clip(clip)
-        window = Window(Path(self.root), None if self.dataset is None else self.dataset.frame)
-        for frame, taken, watch in self.frames(clip, window):
+        start = 0
+        if resumed is None:
+            log.start_clip()
+        else:  # the interrupted clip's outputs again from its logged tracks, then its tracker as it was
+            meta, arrays = resumed
+            start = meta["next"]
+            for chunk in log.chunks(c):
+                for logged in chunk:
+                    final([(window.frame(clip, self.first + len(times)), logged.tracked)], log_it=False)
+            tracker.restore(arrays)
+            ids.ids.restore(arrays)
+            track_ids, times = set(arrays["clip_track_ids"].tolist()), array("d", arrays["clip_times"].tolist())
+            ends = np.cumsum(arrays["held_count"])
+            held.frames = [(window.frame(clip, index), TrackedFrame(
+                arrays["held_boxes"][end - n:end], arrays["held_ids"][end - n:end], arrays["held_scores"][end - n:end],
+                (), arrays["held_states"][end - n:end]))
+                for index, end, n in zip(arrays["held_index"].tolist(), ends.tolist(), arrays["held_count"].tolist())]
+        for frame, taken, watch in self.frames(clip, window, start):
             if frame.index < self.first:
                 if self.detector is not None and taken:
                     self.detector.prime(frame, watch)
@@ -310,12 +370,18 @@ class _Run:
                 self.pacer.done(self.k)
                 if self.latency is not None:
                     self.latency.add(clip, frame.index, watch)
-                final(held.push(frame, out))
+                done = held.push(frame, out)
+                final(done)
+                if done and len(times) % CHUNK_FRAMES == 0:
+                    self.checkpoint(log, c, frame.index + 1, self.k + 1, state())
             progress.update()
         final(held.flush())
         outputs.end_clip()
+        log.end_clip()
+        self.tracked += len(times)
+        self.track_ids += len(track_ids)
         self.play_s += len(times) * float(np.median(np.diff(times))) if len(times) > 1 else 0.0
-        return truth, tracks
+        self.checkpoint(log, c + 1, 0, self.k, {})
 
 
 def run_track(options: TrackOptions, write: Callable[[Path, TrackResult], None]) -> TrackResult:
@@ -325,21 +391,42 @@ def run_track(options: TrackOptions, write: Callable[[Path, TrackResult], None])
     run = _Run(options)
     if options.model is not None and run.detector is None:
         run.offline_detections()
-    with staged(options.out) as staging:
-        outputs = TrackOutputs(staging, run.sensors, run.layout, bags=True)
-        truth, tracks = run.run(outputs)
-        outputs.close()
-        if run.latency is not None:
-            run.latency.write(staging / "latency.csv")
-        scores = None
-        if truth is not None and sum(len(g.ids) for clip in truth for g in clip):
-            scores = (evaluate_tracking(truth, tracks, MIN_IOU), hota(truth, tracks), centre_hota(truth, tracks))
-        result = TrackResult(
-            run.clips, sum(map(len, tracks)), len({(c, i) for c, clip in zip(run.clips, tracks) for f in clip
-                                                   for i in f.ids.tolist()}),
-            run.play_s, time.perf_counter() - start, *(scores or (None, None, None)), run.pacer.late, run.pacer.dropped,
-            run.latency,
-        )
-        if scores is not None:
-            write(staging, result)
+    with staged(options.out, options.resume) as staging:
+        run.staging = staging
+        resumed = resume.load(staging, run.fingerprint()) if options.resume else None
+        from train.track.rerun_tracks import RerunTracks  # rerun and the drawing stack (numba) only when asked
+
+        recording = None if options.rerun is None else RerunTracks(
+            options.rerun, run.sensors, f"{Path(run.root).resolve().name}.track")
+        outputs = TrackOutputs(staging, run.sensors, run.layout, bags=True, recording=recording)
+        try:
+            result = _finish(run, options, staging, outputs, resumed, start, write)
+        except BaseException:
+            if recording is not None:
+                recording.abort()
+            raise
+        if recording is not None:
+            recording.close()
+    return result
+
+
+def _finish(run: _Run, options: TrackOptions, staging: Path, outputs: TrackOutputs, resumed, start: float,
+            write: Callable[[Path, TrackResult], None]) -> TrackResult:
+    """Every clip tracked into `outputs`, then the metrics from the frame log, into `staging`."""
+    log = FrameLog(staging / ".frames")  # the metrics' inputs and the tracks, on disk: flat memory, resumable
+    run.run(outputs, log, resumed)
+    outputs.close()
+    resume.remove(staging)
+    if run.latency is not None:
+        run.latency.write(staging / "latency.csv")
+    scores = None
+    if run.labelled and log.gt_boxes:
+        scores = (log.evaluate_tracking(MIN_IOU), log.hota(), log.centre_hota())
+    log.remove()
+    result = TrackResult(
+        run.clips, run.tracked, run.track_ids, run.play_s, time.perf_counter() - start,
+        *(scores or (None, None, None)), run.pacer.late, run.pacer.dropped, run.latency,
+    )
+    if scores is not None:
+        write(staging, result)
     return result

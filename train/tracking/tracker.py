@@ -27,6 +27,8 @@ tracklets' scores.
 
 from __future__ import annotations
 
+from dataclasses import fields
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -65,6 +67,19 @@ class Tracker:
     def split_pairs(self) -> frozenset[frozenset[int]]:
         """Ids of the track pairs the split module gave two boxes in the last step."""
         return frozenset(self._fused)
+
+    def state(self) -> dict[str, NDArray]:
+        """Everything a step reads, as plain arrays (a resumed run's `restore`)."""
+        tracks = self._tracks
+        fused = np.array(sorted(sorted(pair) for pair in self._fused), np.int64).reshape(-1, 2)
+        return {**{f"tracks_{f.name}": getattr(tracks, f.name) for f in fields(tracks)},
+                "next_id": np.array(self._next_id), "frames": np.array(self._frames), "fused": fused}
+
+    def restore(self, state: dict[str, NDArray]) -> None:
+        """Back to a `state` of a tracker of the same config."""
+        self._tracks = TrackTable(**{f.name: state[f"tracks_{f.name}"] for f in fields(TrackTable)})
+        self._next_id, self._frames = int(state["next_id"]), int(state["frames"])
+        self._fused = {frozenset(pair) for pair in state["fused"].tolist()}
 
     def step(self, tracklets: Tracklets) -> TrackedFrame:
         cfg, life, tracks = self.config.association, self.config.life_cycle, self._tracks

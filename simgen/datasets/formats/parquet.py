@@ -339,7 +339,7 @@ def open_table(path: Path, name: str) -> pq.ParquetFile:
 @dataclass(frozen=True)
 class _ClipTables:
     frames: pa.Table
-    boxes: pa.Table
+    boxes: pq.ParquetFile  # read a row group (FRAMES_PER_GROUP frames) at a time: memory flat in a clip's length
     box_offsets: NDArray[np.int64]  # (F + 1,) first box row of each frame
     points: pq.ParquetFile
     point_offsets: NDArray[np.int64]  # (F + 1,) first point row of each frame in the clip
@@ -352,7 +352,7 @@ class ParquetReader:
         self.files = files
         self.most_points = most_points
         self._clip = functools.lru_cache(maxsize=OPEN_CLIPS)(self._load_clip)
-        self._last_group: tuple[tuple[str, int] | None, pa.Table | None] = (None, None)
+        self._last: dict[str, tuple[tuple[str, int], pa.Table]] = {}  # table name -> its last row group read
 
     def _open(self, name: str, clip: str) -> pq.ParquetFile:
         """The table, its declared rows and bytes checked (nothing read yet)."""
@@ -385,19 +385,28 @@ class ParquetReader:
             check_boxes(frames_path, f"frame {worst}", int(box_counts[worst]), 1)
         boxes_path = table_path("boxes", clip)
         check_boxes(self.files.root / boxes_path, "the table", self.files.rows(boxes_path), count)
-        boxes = self._read("boxes", clip)
+        boxes = self._open("boxes", clip)
+        try:
+            box_index = boxes.read(columns=["clip", "frame"])
+        except (OSError, pa.ArrowException) as error:
+            raise UserError(f"{self.files.root / table_path('boxes', clip)}: unreadable ({error})") from None
         points = self._open("points", clip)
         path = self.files.root / table_path("points", clip)
         groups = -(-count // POINTS_FRAMES_PER_GROUP)
         if points.metadata.num_row_groups != groups or not np.array_equal(frames["frame"].to_numpy(), np.arange(count)):
             raise UserError(f"{path}: row groups do not match the clip's {count} frames")
-        for name, table in (("frames", frames), ("boxes", boxes)):
+        for name, table in (("frames", frames), ("boxes", box_index)):
             if set(table["clip"].unique().to_pylist()) - {clip}:
                 raise UserError(f"{self.files.root / table_path(name, clip)}: rows of another clip than {clip}")
-        offsets = np.searchsorted(boxes["frame"].to_numpy(), np.arange(count + 1))
+        offsets = np.searchsorted(box_index["frame"].to_numpy(), np.arange(count + 1))
         if not np.array_equal(np.diff(offsets), box_counts):
             raise UserError(f"{self.files.root / table_path('boxes', clip)}: rows are not the boxes the frames table "
                             "counts")
+        box_groups = [boxes.metadata.row_group(g).num_rows for g in range(boxes.metadata.num_row_groups)]
+        box_starts = offsets[np.minimum(np.arange(-(-count // FRAMES_PER_GROUP) + 1) * FRAMES_PER_GROUP, count)]
+        if box_groups != np.diff(box_starts).tolist():
+            raise UserError(f"{self.files.root / table_path('boxes', clip)}: row groups do not hold "
+                            f"{FRAMES_PER_GROUP} frames each")
         sizes = [points.metadata.row_group(g).num_rows for g in range(groups)]
         point_offsets = np.concatenate([[0], np.cumsum(frames["num_points"].to_numpy(), dtype=np.int64)])
         group_starts = point_offsets[np.minimum(np.arange(groups + 1) * POINTS_FRAMES_PER_GROUP, count)]
@@ -405,23 +414,25 @@ class ParquetReader:
             raise UserError(f"{path}: row groups do not hold the points the frames table counts")
         return _ClipTables(frames, boxes, offsets, points, point_offsets)
 
-    def _point_group(self, clip: str, group: int) -> pa.Table:
-        """Row group `group` of a clip's points; the last one read is kept (frames are mostly read in order)."""
-        if self._last_group[0] != (clip, group):
+    def _group(self, name: str, clip: str, group: int) -> pa.Table:
+        """Row group `group` of a clip's `points` or `boxes`; the last one read of each is kept (frames are mostly
+        read in order)."""
+        key, table = self._last.get(name, (None, None))
+        if key != (clip, group):
             try:
-                table = self._clip(clip).points.read_row_group(group)
+                table = getattr(self._clip(clip), name).read_row_group(group)
             except (OSError, pa.ArrowException) as error:
                 raise UserError(
-                    f"{self.files.root / table_path('points', clip)}: unreadable row group {group} ({error})"
+                    f"{self.files.root / table_path(name, clip)}: unreadable row group {group} ({error})"
                 ) from None
-            self._last_group = ((clip, group), table)
-        return self._last_group[1]
+            self._last[name] = ((clip, group), table)
+        return table
 
     def frame(self, clip: str, index: int) -> Frame:
         tables = self._clip(clip)
         group = index // POINTS_FRAMES_PER_GROUP
         first = tables.point_offsets[group * POINTS_FRAMES_PER_GROUP]
-        points = self._point_group(clip, group).slice(
+        points = self._group("points", clip, group).slice(
             tables.point_offsets[index] - first, tables.point_offsets[index + 1] - tables.point_offsets[index]
         )
         point_frame = points["frame"]
@@ -430,7 +441,11 @@ class ParquetReader:
                 f"{self.files.root / table_path('points', clip)}: frame {index}'s points are not where the frames "
                 "table counts them"
             )
-        boxes = tables.boxes.slice(tables.box_offsets[index], tables.box_offsets[index + 1] - tables.box_offsets[index])
+        box_group = index // FRAMES_PER_GROUP
+        boxes = self._group("boxes", clip, box_group).slice(
+            tables.box_offsets[index] - tables.box_offsets[box_group * FRAMES_PER_GROUP],
+            tables.box_offsets[index + 1] - tables.box_offsets[index],
+        )
         frame_row = tables.frames.slice(index, 1).to_pylist()[0]
         box_fields = _box_fields(boxes)
         return Frame(
