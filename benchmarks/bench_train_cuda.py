@@ -33,9 +33,8 @@ sys.path.insert(0, str(ROOT))
 from train.accelerate import accelerate
 from train.config import load_config
 from train.data import SampleSet, loader
-from train.detector.losses import detection_loss
 from train.detector.model import build_detector
-from train.fit import autocast
+from train.fit import train_step
 
 VARIANTS = {  # the speed choices each variant turns on, cumulative
     "base": {"cudnn_benchmark": "off", "channels_last": "off", "compile": "off"},
@@ -49,7 +48,8 @@ def measure(config_path: Path, variant: str, dataset: str, batches: int, warm_up
             device: torch.device) -> dict[str, float]:
     """samples/s, warm-up seconds and peak GiB of `steps` training steps of a config under `variant`."""
     config = load_config(config_path)
-    train = config.train.model_copy(update=VARIANTS[variant])
+    config = config.model_copy(update={"train": config.train.model_copy(update=VARIANTS[variant])})
+    train = config.train
     model = build_detector(config).to(device).train()
     step_model = accelerate(model, train, device)
     optimizer = torch.optim.AdamW(model.parameters(), lr=1e-4, betas=(0.95, 0.99), weight_decay=train.weight_decay)
@@ -61,13 +61,7 @@ def measure(config_path: Path, variant: str, dataset: str, batches: int, warm_up
         torch.cuda.reset_peak_memory_stats(device)
 
     def step(batch) -> None:
-        with autocast(device, train.bf16):
-            output = step_model(batch)
-        terms = detection_loss(output.float(), batch.targets, config.loss)
-        optimizer.zero_grad(set_to_none=True)
-        terms.total.backward()
-        torch.nn.utils.clip_grad_norm_(model.parameters(), train.grad_clip)
-        optimizer.step()
+        train_step(step_model, model, optimizer, batch, config, device)
 
     sync(device)
     start = time.perf_counter()

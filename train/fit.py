@@ -10,6 +10,7 @@ import contextlib
 import math
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,7 +22,7 @@ from train.checkpoint import Checkpoint, save_checkpoint
 from train.config import DetectorConfig
 from train.data import SampleSet, loader
 from train.detector.inference import predict
-from train.detector.losses import detection_loss
+from train.detector.losses import LossTerms, detection_loss
 from train.detector.model import Detector, build_detector
 from train.evaluation.ap_table import average_precisions, mean_ap
 from train.evaluation.learning_curve import CurvePoint, read_curve, write_curve
@@ -44,6 +45,21 @@ def autocast(device: torch.device, mode: str) -> contextlib.AbstractContextManag
     """bfloat16 autocast for `train.bf16` (`auto`: on CUDA only; `on` works on CPU too, for tests)."""
     enabled = mode == "on" or (mode == "auto" and device.type == "cuda")
     return torch.autocast(device.type, dtype=torch.bfloat16, enabled=enabled)
+
+
+def train_step(step_model: Callable, model: Detector, optimizer: torch.optim.Optimizer, batch, config: DetectorConfig,
+               device: torch.device) -> LossTerms:
+    """One optimiser step on a batch already on `device`: the forward pass of `step_model` (the model or its
+    compiled wrapper, train.accelerate) under autocast, the float32 loss, backward, gradient clipping; its loss
+    terms."""
+    with autocast(device, config.train.bf16):
+        output = step_model(batch)
+    terms = detection_loss(output.float(), batch.targets, config.loss)
+    optimizer.zero_grad(set_to_none=True)
+    terms.total.backward()
+    torch.nn.utils.clip_grad_norm_(model.parameters(), config.train.grad_clip)
+    optimizer.step()
+    return terms
 
 
 @dataclass(frozen=True)
@@ -128,14 +144,7 @@ def _train(model: Detector, optimizer: torch.optim.Optimizer, samples: SampleSet
         lr = one_cycle_lr(step, train.iterations, train.lr)
         for group in optimizer.param_groups:
             group["lr"] = lr
-        batch = batch.to(device, non_blocking=cuda)
-        with autocast(device, train.bf16):
-            output = step_model(batch)
-        terms = detection_loss(output.float(), batch.targets, config.loss)
-        optimizer.zero_grad(set_to_none=True)
-        terms.total.backward()
-        torch.nn.utils.clip_grad_norm_(model.parameters(), train.grad_clip)
-        optimizer.step()
+        terms = train_step(step_model, model, optimizer, batch.to(device, non_blocking=cuda), config, device)
         done = step + 1
         if done % train.log_every == 0 or done == train.iterations:
             values = terms.as_floats()
