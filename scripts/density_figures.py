@@ -1,7 +1,7 @@
 """The density sweep's two figures (docs/density_sweep.md): 3D AP against density, ours beside the paper's Table 1,
 and 3D AP against distance from the sensor with the median points per player.
 
-    .venv/bin/python scripts/density_figures.py -o docs/density_sweep \\
+    .venv/bin/python scripts/density_figures.py -o studies/density_sweep \\
         --curve "late@1=studies/paper_x1_snapshot_track_sizes_gpu/late/learning_curve.csv" \\
         --bins "late x1=studies/density_sweep/late_x1/ap_by_distance.csv" ...
 
