@@ -17,7 +17,7 @@ from pathlib import Path
 import torch
 from tqdm import tqdm
 
-from train.accelerate import accelerate
+from train.accelerate import accelerate, wanted
 from train.checkpoint import Checkpoint, save_checkpoint
 from train.config import DetectorConfig
 from train.data import SampleSet, loader
@@ -43,8 +43,7 @@ def one_cycle_lr(step: int, total: int, peak: float) -> float:
 
 def autocast(device: torch.device, mode: str) -> contextlib.AbstractContextManager:
     """bfloat16 autocast for `train.bf16` (`auto`: on CUDA only; `on` works on CPU too, for tests)."""
-    enabled = mode == "on" or (mode == "auto" and device.type == "cuda")
-    return torch.autocast(device.type, dtype=torch.bfloat16, enabled=enabled)
+    return torch.autocast(device.type, dtype=torch.bfloat16, enabled=wanted(mode, device))
 
 
 def train_step(step_model: Callable, model: Detector, optimizer: torch.optim.Optimizer, batch, config: DetectorConfig,
