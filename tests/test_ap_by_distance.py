@@ -1,5 +1,5 @@
-"""AP by distance from the sensor (train.evaluation.ap_table.ap_by_distance) and KITTI's rule for detections
-outside a bin (FrameBoxes.ignore_unmatched), on hand-built frames."""
+"""AP by distance from the sensor (train.evaluation.ap_table.ap_by_distance) and by pitch zone (ap_by_zone),
+and KITTI's rule for detections outside a bin (FrameBoxes.ignore_unmatched), on hand-built frames."""
 
 import numpy as np
 import pytest
@@ -7,7 +7,7 @@ import pytest
 from train.config import TRACKLET_FRAMES
 from train.data import Sample
 from train.detector.postprocess import Detections
-from train.evaluation.ap_table import ap_by_distance, average_precisions, mean_ap, sensor_distance_m
+from train.evaluation.ap_table import ap_by_distance, ap_by_zone, average_precisions, mean_ap, sensor_distance_m
 from train.evaluation.detection import FrameBoxes, detection_ap
 
 SENSOR = np.array([[0.0, -35.0]])
@@ -112,3 +112,18 @@ def test_unmatched_detections_marked_ignore_unmatched_leave_the_ranking():
     marked = FrameBoxes(detected, scores, truth, ignore_unmatched=np.ones(51, bool))
     assert detection_ap([plain], "bev") < 100.0
     assert detection_ap([marked], "bev") == pytest.approx(100.0)
+
+
+def test_zones_split_the_boxes_at_the_papers_box_edge():
+    """Players inside the paper's [-40, 40] m box (one on its edge) and beyond it: each counts in one zone; a false
+    detection beyond the box lowers only the outside zone's AP."""
+    truth = np.stack([player(0.0, 0.0), player(40.0, 10.0), player(45.0, 0.0), player(-50.0, 30.0)])
+    false = player(-48.0, -20.0)
+    results = [(sample(truth), found(np.concatenate([truth, false[None]]), [0.5, 0.5, 0.5, 0.5, 0.9]))
+               for _ in range(60)]
+    rows = {(r.zone, r.iou): r for r in ap_by_zone(results) if r.recall_points == 40}
+    assert sorted(rows) == [("outside", "3d"), ("outside", "bev"), ("paper box", "3d"), ("paper box", "bev")]
+    assert rows[("paper box", "3d")].truth == rows[("outside", "3d")].truth == 120
+    assert rows[("paper box", "3d")].detections == 120 and rows[("outside", "3d")].detections == 180
+    assert rows[("paper box", "3d")].ap == pytest.approx(100.0)
+    assert rows[("outside", "3d")].ap < 100.0

@@ -154,9 +154,10 @@ def test_match_points_by_distance_agree_with_a_generated_dataset(tmp_path):
 def test_whole_pitch_detector_configs_cover_the_pitch():
     from train.config import load_config
 
-    for path, like in (("whole_pitch_late", "late"), ("paper/whole_pitch_late", "paper/late")):
-        config = load_config(ROOT / f"train/configs/{path}.yaml")
-        paper = load_config(ROOT / f"train/configs/{like}.yaml")
-        x0, y0, _, x1, y1, _ = config.data.point_range_m
-        assert x0 < -52.5 - 3 and x1 > 52.5 + 3 and y0 < -34 - 3 and y1 > 34 + 3
-        assert config.model == paper.model and config.train == paper.train
+    for size in ("", "paper/"):
+        for model in ("single", "early", "late"):
+            config = load_config(ROOT / f"train/configs/{size}whole_pitch/{model}.yaml")
+            paper = load_config(ROOT / f"train/configs/{size}{model}.yaml")
+            x0, y0, _, x1, y1, _ = config.data.point_range_m
+            assert x0 < -52.5 - 3 and x1 > 52.5 + 3 and y0 < -34 - 3 and y1 > 34 + 3
+            assert config.model == paper.model and config.train == paper.train

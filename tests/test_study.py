@@ -212,6 +212,23 @@ def test_track_scores_a_studys_tracklet_files_as_the_study_did(study, tmp_path):
     assert again == unfiltered and unfiltered
 
 
+def test_table2_by_zone_counts_every_labelled_box_in_one_zone(study, tmp_path):
+    _, configs, datasets, out, _ = study
+    tracklets = sorted((out / "late" / "tracklets").iterdir())
+    code, stdout, stderr = run_main(main, "table2", *tracklets, "--dataset", datasets / NAME, "--config",
+                                    configs / "late.yaml", "-o", tmp_path / "zones", "--quiet", "--by-zone",
+                                    "--filters-from", out / "table2.csv")
+    assert code == 0, stderr[-2000:]
+    assert str(tmp_path / "zones" / "table2_by_zone.csv") in stdout.split()
+    whole = {(r["tracker"], r["min_iou"]): int(r["n_gt"])
+             for r in csv.DictReader(open(tmp_path / "zones" / "table2.csv")) if r["tracklets"] == "filtered"}
+    zoned = list(csv.DictReader(open(tmp_path / "zones" / "table2_by_zone.csv")))
+    assert zoned and {r["zone"] for r in zoned} <= {"paper box", "outside"}
+    for key, n_gt in whole.items():
+        assert sum(int(r["n_gt"]) for r in zoned if (r["tracker"], r["min_iou"]) == key) == n_gt
+    assert "## By pitch zone" in (tmp_path / "zones" / "table2.md").read_text()
+
+
 def test_track_refuses_a_clip_the_dataset_lacks_in_one_line(study, tmp_path):
     _, configs, datasets, out, _ = study
     stray = tmp_path / "stray.npz"

@@ -117,16 +117,17 @@ def test_detect_writes_tracklets_and_kitti_labels(trained, tmp_path, capsys):
 
 @pytest.mark.engine
 def test_score_of_detects_tracklets_is_evals_ap_with_distance_bins(trained, tmp_path, capsys):
-    """`score` of the tracklet files `detect` wrote reads the same AP as `eval` of the checkpoint, by distance too."""
+    """`score` of the tracklet files `detect` wrote reads the same AP as `eval` of the checkpoint, by distance and by
+    zone too; each labelled box counts in one bin and one zone."""
     dataset, run = trained
     checkpoint = run / "checkpoint.pt"
     for command in ("eval", "detect"):
         code, err = call_train(capsys, command, checkpoint, "--dataset", dataset, "-o", tmp_path / command, "--split",
-                               "all", "--quiet", *(["--by-distance", 20] if command == "eval" else []))
+                               "all", "--quiet", *(["--by-distance", 20, "--by-zone"] if command == "eval" else []))
         assert code == 0, err
     tracklets = sorted((tmp_path / "detect" / "tracklets").iterdir())
     code, err = call_train(capsys, "score", *tracklets, "--dataset", dataset, "--config", run / "tiny.yaml", "-o",
-                           tmp_path / "score", "--by-distance", 20)
+                           tmp_path / "score", "--by-distance", 20, "--by-zone")
     assert code == 0, err
 
     def table(folder, name, extra):
@@ -139,6 +140,11 @@ def test_score_of_detects_tracklets_is_evals_ap_with_distance_bins(trained, tmp_
     total = next(r for r in csv.DictReader(open(tmp_path / "score" / "ap.csv"))
                  if (r["truth_set"], r["box"], r["iou"], r["recall_points"]) == ("all", "t", "3d", "40"))
     assert sum(int(r["truth"]) for r in bins if (r["iou"], r["recall_points"]) == ("3d", "40")) == int(total["truth"])
+    assert table("score", "ap_by_zone.csv", 2) == table("eval", "ap_by_zone.csv", 3)
+    zones = [r for r in csv.DictReader(open(tmp_path / "score" / "ap_by_zone.csv"))
+             if (r["iou"], r["recall_points"]) == ("3d", "40")]
+    assert {r["zone"] for r in zones} <= {"paper box", "outside"} and zones
+    assert sum(int(r["truth"]) for r in zones) == int(total["truth"])
 
 
 @pytest.mark.engine

@@ -35,9 +35,11 @@ from train.evaluation.ap_table import (
     evaluate,
     format_ap_table,
     format_distance_table,
+    format_zone_table,
     score,
     write_ap_csv,
     write_distance_csv,
+    write_zone_csv,
 )
 from train.fit import fit
 from train.preflight import (
@@ -47,7 +49,7 @@ from train.preflight import (
     parse_seeds,
     scenario_points_per_frame,
 )
-from train.study.report import tracking_csv, tracking_markdown, write_tables
+from train.study.report import tracking_csv, tracking_markdown, write_tables, zone_csv
 from train.study.run import (
     CONFIGS,
     PRESETS,
@@ -63,6 +65,7 @@ from train.study.run import (
     seed_runs,
     split_window_pairs,
     track,
+    track_by_zone,
     tracklet_clip_set,
     tracklet_results,
 )
@@ -177,7 +180,7 @@ def _fit(args: argparse.Namespace) -> int:
 
 
 def _write_scores(out: Path, result: EvalResult, extra: dict[str, str]) -> None:
-    """ap.csv and, with a distance bin, ap_by_distance.csv; both tables printed."""
+    """ap.csv and, with a distance bin, ap_by_distance.csv, by zone ap_by_zone.csv; the tables printed."""
     out.mkdir(parents=True, exist_ok=True)
     write_ap_csv(out / "ap.csv", result.rows, extra)
     print(format_ap_table(result.rows))
@@ -185,12 +188,17 @@ def _write_scores(out: Path, result: EvalResult, extra: dict[str, str]) -> None:
         write_distance_csv(out / "ap_by_distance.csv", result.distance, extra)
         print(format_distance_table(result.distance))
         print(f"{out / 'ap_by_distance.csv'}")
+    if result.zone is not None:
+        write_zone_csv(out / "ap_by_zone.csv", result.zone, extra)
+        print(format_zone_table(result.zone))
+        print(f"{out / 'ap_by_zone.csv'}")
 
 
 def _eval(args: argparse.Namespace) -> int:
     out, dataset, device = _output(args.output, args.dataset), _dataset(args.dataset), _device(args.device)
     model, config, iteration = _model(args.checkpoint, dataset, device)
-    result = evaluate(model, config, args.dataset, _split(args.split), device, not args.quiet, args.by_distance)
+    result = evaluate(model, config, args.dataset, _split(args.split), device, not args.quiet, args.by_distance,
+                      args.by_zone)
     _write_scores(out, result, {"model": config.name, "iteration": str(iteration), "split": args.split})
     print(f"{out / 'ap.csv'}: {config.name} at iteration {iteration}, {result.frames_per_s:.2f} frames/s")
     return 0
@@ -201,7 +209,7 @@ def _score(args: argparse.Namespace) -> int:
     _dataset(args.dataset)
     start = time.perf_counter()
     results = tracklet_results([Path(p) for p in args.tracklets], Path(args.dataset), config)
-    result = score(results, args.dataset, args.by_distance, start)
+    result = score(results, args.dataset, args.by_distance, start, args.by_zone)
     clips = sorted({s.clip for s, _ in results})
     _write_scores(out, result, {"model": config.name, "clips": " ".join(clips)})
     print(f"{out / 'ap.csv'}: {config.name}'s tracklets of {len(clips)} clip{'' if len(clips) == 1 else 's'}, "
@@ -361,15 +369,18 @@ def _table2(args: argparse.Namespace) -> int:
                      "tracker reaches its highest sAMOTA (IoU 0.25) there")
         filters = choose_tracklet_filters(choose_on, tracked, configs, not args.quiet, args.workers)
     results = track(tracked, configs, filters, not args.quiet)
+    by_zone = track_by_zone(tracked, configs, filters) if args.by_zone else None
     counts, pairs = module_counts(tracked, configs, filters), split_window_pairs(tracked, configs, filters)
     command = shlex.join(["simgen-train", "table2", *args.tracklets, "--dataset", args.dataset, "--config",
                           args.config, "-o", args.output, "--workers", str(args.workers)]
                          + (["--choose-on", *args.choose_on] if args.choose_on else [])
                          + (["--filters-from", args.filters_from] if args.filters_from else [])
-                         + (["--trackers", args.trackers] if Path(args.trackers) != TRACKER_CONFIGS else []))
+                         + (["--trackers", args.trackers] if Path(args.trackers) != TRACKER_CONFIGS else [])
+                         + (["--by-zone"] if args.by_zone else []))
     texts = {"table2.md": tracking_markdown(command, tracked, results, filters, chosen_on, counts, pairs,
-                                            time.perf_counter() - start),
-             "table2.csv": tracking_csv(results, filters)}
+                                            time.perf_counter() - start, by_zone),
+             "table2.csv": tracking_csv(results, filters),
+             **({"table2_by_zone.csv": zone_csv(by_zone, filters)} if by_zone is not None else {})}
     out.mkdir(parents=True, exist_ok=True)
     for name, text in texts.items():
         with atomic_path(out / name) as tmp:
@@ -460,6 +471,9 @@ def build_parser() -> argparse.ArgumentParser:
                        f"in bins of M metres (default {DISTANCE_BIN_M:g}) of their centre's pitch-plane distance "
                        "from the nearest sensor; in each bin, labelled boxes outside it are ignored and a detection "
                        "that matches no counted box is a false positive only if its own centre is in the bin")
+        p.add_argument("--by-zone", action="store_true", help="also AP by pitch zone into ap_by_zone.csv: the boxes "
+                       "at t whose centre is in the paper's detection box ([-40, 40] m in x and y) and outside it, "
+                       "each zone scored as a --by-distance bin")
 
     for name, func, text in (("eval", _eval, "detection AP (BEV, 3D; IoU 0.5; R40 and R11) into ap.csv"),
                              ("detect", _detect, "tracklet files and KITTI labels per frame")):
@@ -476,7 +490,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "the dataset's labels as `simgen-train eval` scores a checkpoint: every frame t with two "
                        "before it, the labelled boxes of the config's classes whose centre at t is in its point "
                        "range; AP at t, t-1 and t-2 on all boxes and on the visible ones.")
-    tracklet_inputs(p, "output folder (created): ap.csv, with --by-distance ap_by_distance.csv")
+    tracklet_inputs(p, "output folder (created): ap.csv, with --by-distance ap_by_distance.csv, with --by-zone "
+                    "ap_by_zone.csv")
     by_distance(p)
     p.set_defaults(func=_score)
 
@@ -569,6 +584,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--trackers", default=str(TRACKER_CONFIGS), help="folder of tracker configs, one per Table 2 row "
                    "(default: train/configs/tracking)")
     p.add_argument("--workers", type=WORKERS, default=1, help="processes scoring the candidate filters (default 1)")
+    p.add_argument("--by-zone", action="store_true", help="also Table 2 in each pitch zone (the paper's detection "
+                   "box, [-40, 40] m in x and y, and outside it): tracks and labels cut to the zone frame by frame; "
+                   "into table2.md and table2_by_zone.csv")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=_table2)
     return parser

@@ -16,6 +16,7 @@ from typing import Annotated, ClassVar, Literal
 
 from pydantic import Field, model_validator
 
+from simgen.errors import UserError
 from simgen.validation import Strict, read_yaml, validate
 
 TRACKLET_FRAMES = 3  # t-2, t-1, t
@@ -350,6 +351,30 @@ def parse_config(data: object, source: str = "config") -> DetectorConfig:
     return validate(DetectorConfig, _renamed(data, source), source)
 
 
+MAX_BASES = 4  # configs chained by `base` (a cycle ends here)
+
+
+def _overlaid(base: object, over: object) -> object:
+    """`over` on top of `base`: mappings merged key by key, anything else replaced."""
+    if not isinstance(base, dict) or not isinstance(over, dict):
+        return over
+    return {**base, **{key: _overlaid(base.get(key), value) for key, value in over.items()}}
+
+
+def _read_with_base(path: Path, chained: int = 0) -> object:
+    """A config file's document; with `base: FILE.yaml` (a path from its folder), that config's document with this
+    one's keys laid over it (a whole-pitch config is the compact one with another `data.point_range_m`)."""
+    data = read_yaml(path, "config")
+    if not isinstance(data, dict) or "base" not in data:
+        return data
+    base = data["base"]
+    if not isinstance(base, str) or not base.endswith(".yaml"):
+        raise UserError(f"{path}: 'base' must name a config .yaml file, relative to this one's folder")
+    if chained >= MAX_BASES:
+        raise UserError(f"{path}: more than {MAX_BASES} configs chained by 'base' (a cycle?)")
+    return _overlaid(_read_with_base(path.parent / base, chained + 1), {k: v for k, v in data.items() if k != "base"})
+
+
 def load_config(path: str | Path) -> DetectorConfig:
-    """Read and validate a detector config YAML file."""
-    return parse_config(read_yaml(path, "config"), str(path))
+    """Read and validate a detector config YAML file (with its `base` config, if it names one)."""
+    return parse_config(_read_with_base(Path(path)), str(path))

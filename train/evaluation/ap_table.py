@@ -3,13 +3,15 @@
 AP rows: each box of the tracklet (t, t-1, t-2), IoU 0.5 in BEV and 3D and pitch-plane centre
 distance within 0.25, 0.5 and 1 m, R40 and R11, on all labelled boxes and on the *visible* ones
 (at least one point in t-2..t; the others are ignored: a detection on one counts neither way). By distance
-(`ap_by_distance`): BEV and 3D AP of the boxes at t per 10 m bin of distance from the dataset's sensor.
+(`ap_by_distance`): BEV and 3D AP of the boxes at t per 10 m bin of distance from the dataset's sensor; by pitch zone
+(`ap_by_zone`): the same in the paper's detection box and outside it (train.evaluation.zones).
 """
 
 from __future__ import annotations
 
 import csv
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -25,6 +27,7 @@ from train.detector.inference import predict
 from train.detector.model import Detector
 from train.detector.postprocess import Detections
 from train.evaluation.detection import RECALL_POINTS, FrameBoxes, detection_aps, similarities
+from train.evaluation.zones import ZONES, zone_index
 
 IOU_THRESHOLD = 0.5
 CENTRE_THRESHOLDS_M = (0.25, 0.5, 1.0)
@@ -126,19 +129,67 @@ def sensor_distance_m(boxes: NDArray[np.float32], sensors_xy: NDArray[np.float64
 
 
 @dataclass(frozen=True)
-class DistanceRow:
-    """AP of the boxes at t in one bin of distance from the sensor, [low_m, high_m)."""
+class RegionAp:
+    """AP of the boxes at t in one region: a bin of distance from the sensor (DistanceRow) or a pitch zone (ZoneRow)."""
 
-    low_m: float
-    high_m: float
     iou: str  # "bev" or "3d", IoU >= IOU_THRESHOLD
     recall_points: int  # 40 or 11
     ap: float  # percent
-    truth: int  # labelled boxes in the bin
-    detections: int  # detections whose own centre is in the bin
-    median_points: float  # points on a labelled box of the bin in its frame t; NaN where not given
-    seen_t: float  # share of the bin's labelled boxes with a point at t; NaN where not given
+    truth: int  # labelled boxes in the region
+    detections: int  # detections whose own centre is in the region
+    median_points: float  # points on a labelled box of the region in its frame t; NaN where not given
+    seen_t: float  # share of the region's labelled boxes with a point at t; NaN where not given
     seen_window: float  # share with a point in t-2..t (the visible ones); NaN where not given
+
+
+@dataclass(frozen=True)
+class DistanceRow(RegionAp):
+    """AP in one bin of distance from the sensor, [low_m, high_m)."""
+
+    low_m: float
+    high_m: float
+
+
+@dataclass(frozen=True)
+class ZoneRow(RegionAp):
+    """AP in one pitch zone (train.evaluation.zones.ZONES)."""
+
+    zone: str
+
+
+def _ap_by_region(
+    results: list[tuple[Sample, Detections]], region_of: Callable[[NDArray], NDArray[np.int64]],
+    points: list[NDArray[np.int64]] | None,
+) -> list[tuple]:
+    """Per region of the boxes at t (`region_of`: boxes (N, 7) -> (N,) region numbers), for BEV and 3D, R40 and R11:
+    (region, iou, recall points, AP, labelled boxes, detections, median points, seen at t, seen in t-2..t), regions
+    in increasing order, those with no labelled box left out. Each region is scored over every frame with all
+    detections and labelled boxes matched as everywhere (train.evaluation.detection): labelled boxes outside it are
+    ignored (a detection matched to one counts neither way) and a detection that matches no counted box is a false
+    positive only where its own centre is in the region (KITTI's rule for difficulty levels)."""
+    at = TRACKLET_FRAMES - 1
+    truth = [s.boxes[s.box_mask[:, at], at] for s, _ in results]
+    base = [FrameBoxes(d.boxes[:, -1], d.scores, g) for (_, d), g in zip(results, truth)]
+    truth_region = [region_of(g) for g in truth]
+    found_region = [region_of(f.boxes) for f in base]
+    counts = (np.concatenate([p[s.box_mask[:, at]] for p, (s, _) in zip(points, results)])
+              if points is not None and results else None)  # (all boxes at t, 3)
+    all_regions = np.concatenate(truth_region) if truth_region else np.zeros(0, np.int64)
+    similarity = {kind: similarities(base, kind) for kind in ("bev", "3d")}
+    rows = []
+    for k in np.unique(all_regions).tolist():
+        frames = [replace(f, ignore=tr != k, ignore_unmatched=fr != k) for f, tr, fr in zip(base, truth_region,
+                                                                                               found_region)]
+        inside = None if counts is None else counts[all_regions == k]
+        median, seen_t, seen_window = (float("nan"),) * 3 if inside is None else (
+            float(np.median(inside[:, -1])), float(np.mean(inside[:, -1] > 0)), float(np.mean(inside.sum(axis=1) > 0)))
+        truth_count = int(np.count_nonzero(all_regions == k))
+        found = sum(int(np.count_nonzero(fr == k)) for fr in found_region)
+        for kind in ("bev", "3d"):
+            aps = detection_aps(frames, kind, IOU_THRESHOLD, RECALL_POINTS, similarity[kind])
+            rows += [(k, kind, n, ap, truth_count, found, median, seen_t, seen_window)
+                     for n, ap in zip(RECALL_POINTS, aps)]
+    return rows
 
 
 def ap_by_distance(
@@ -148,36 +199,24 @@ def ap_by_distance(
     """BEV and 3D AP (IoU 0.5, R40 and R11) of the boxes at t, per bin of distance from the sensor.
 
     A box's distance is its centre's pitch-plane distance from the nearest sensor (`sensor_distance_m`); bin k
-    holds the distances in [k bin_m, (k + 1) bin_m). Each bin is scored over every frame with all detections
-    and labelled boxes matched as everywhere (train.evaluation.detection): the labelled boxes outside the bin
-    are ignored (a detection matched to one counts neither way) and a detection that matches no counted box is
-    a false positive only where its own centre is in the bin (KITTI's rule for difficulty levels). So each
-    labelled box counts in exactly one bin, and a detection whose centre crossed a bin edge from its box's
-    still counts for that box. Bins from 0 m to the farthest labelled box; bins with no labelled box are left
-    out (AP is undefined there). `points`: per sample, (G, 3) from `object_points`, for the points columns.
+    holds the distances in [k bin_m, (k + 1) bin_m), scored as `_ap_by_region` says: each labelled box counts in
+    exactly one bin, and a detection whose centre crossed a bin edge from its box's still counts for that box.
+    Bins from 0 m to the farthest labelled box; bins with no labelled box are left out (AP is undefined there).
+    `points`: per sample, (G, 3) from `object_points`, for the points columns.
     """
-    at = TRACKLET_FRAMES - 1
-    truth = [s.boxes[s.box_mask[:, at], at] for s, _ in results]
-    base = [FrameBoxes(d.boxes[:, -1], d.scores, g) for (_, d), g in zip(results, truth)]
-    truth_bin = [np.floor(sensor_distance_m(g, sensors_xy) / bin_m).astype(np.int64) for g in truth]
-    found_bin = [np.floor(sensor_distance_m(f.boxes, sensors_xy) / bin_m).astype(np.int64) for f in base]
-    counts = (np.concatenate([p[s.box_mask[:, at]] for p, (s, _) in zip(points, results)])
-              if points is not None and results else None)  # (all boxes at t, 3)
-    all_bins = np.concatenate(truth_bin) if truth_bin else np.zeros(0, np.int64)
-    similarity = {kind: similarities(base, kind) for kind in ("bev", "3d")}
-    rows = []
-    for k in np.unique(all_bins).tolist():
-        frames = [replace(f, ignore=tb != k, ignore_unmatched=fb != k) for f, tb, fb in zip(base, truth_bin, found_bin)]
-        inside = None if counts is None else counts[all_bins == k]
-        median, seen_t, seen_window = (float("nan"),) * 3 if inside is None else (
-            float(np.median(inside[:, -1])), float(np.mean(inside[:, -1] > 0)), float(np.mean(inside.sum(axis=1) > 0)))
-        truth_count = int(np.count_nonzero(all_bins == k))
-        found = sum(int(np.count_nonzero(fb == k)) for fb in found_bin)
-        for kind in ("bev", "3d"):
-            aps = detection_aps(frames, kind, IOU_THRESHOLD, RECALL_POINTS, similarity[kind])
-            rows += [DistanceRow(k * bin_m, (k + 1) * bin_m, kind, n, ap, truth_count, found, median, seen_t,
-                                 seen_window) for n, ap in zip(RECALL_POINTS, aps)]
-    return rows
+    def bin_of(boxes: NDArray) -> NDArray[np.int64]:
+        return np.floor(sensor_distance_m(boxes, sensors_xy) / bin_m).astype(np.int64)
+
+    rows = _ap_by_region(results, bin_of, points)
+    return [DistanceRow(*rest, low_m=k * bin_m, high_m=(k + 1) * bin_m) for k, *rest in rows]
+
+
+def ap_by_zone(
+    results: list[tuple[Sample, Detections]], points: list[NDArray[np.int64]] | None = None
+) -> list[ZoneRow]:
+    """BEV and 3D AP (IoU 0.5, R40 and R11) of the boxes at t in each pitch zone (train.evaluation.zones: the
+    paper's detection box and outside it), scored as `_ap_by_region` says; `points` as for `ap_by_distance`."""
+    return [ZoneRow(*rest, zone=ZONES[k]) for k, *rest in _ap_by_region(results, zone_index, points)]
 
 
 def write_ap_csv(path: Path, rows: list[ApRow], extra: dict[str, str]) -> None:
@@ -190,31 +229,51 @@ def write_ap_csv(path: Path, rows: list[ApRow], extra: dict[str, str]) -> None:
                              r.truth, r.detections])
 
 
-def write_distance_csv(path: Path, rows: list[DistanceRow], extra: dict[str, str]) -> None:
-    """`ap_by_distance`'s rows as CSV, each with the `extra` columns first; written atomically."""
+def _write_region_csv(path: Path, region: dict[str, Callable], rows: list[RegionAp], extra: dict[str, str]) -> None:
+    """Rows of AP by region as CSV: the `extra` columns, then `region`'s (name -> cell of a row), then the AP's;
+    written atomically."""
     with atomic_path(path) as tmp, open(tmp, "w", newline="") as out:
         writer = csv.writer(out)
-        writer.writerow([*extra, "low_m", "high_m", "iou", "threshold", "recall_points", "ap", "truth", "detections",
+        writer.writerow([*extra, *region, "iou", "threshold", "recall_points", "ap", "truth", "detections",
                          "median_points", "seen_t", "seen_window"])
         for r in rows:
-            writer.writerow([*extra.values(), f"{r.low_m:g}", f"{r.high_m:g}", r.iou, IOU_THRESHOLD, r.recall_points,
-                             f"{r.ap:.2f}", r.truth, r.detections, f"{r.median_points:g}", f"{r.seen_t:.3f}",
-                             f"{r.seen_window:.3f}"])
+            writer.writerow([*extra.values(), *(cell(r) for cell in region.values()), r.iou, IOU_THRESHOLD,
+                             r.recall_points, f"{r.ap:.2f}", r.truth, r.detections, f"{r.median_points:g}",
+                             f"{r.seen_t:.3f}", f"{r.seen_window:.3f}"])
+
+
+def write_distance_csv(path: Path, rows: list[DistanceRow], extra: dict[str, str]) -> None:
+    """`ap_by_distance`'s rows as CSV, each with the `extra` columns first; written atomically."""
+    _write_region_csv(path, {"low_m": lambda r: f"{r.low_m:g}", "high_m": lambda r: f"{r.high_m:g}"}, rows, extra)
+
+
+def write_zone_csv(path: Path, rows: list[ZoneRow], extra: dict[str, str]) -> None:
+    """`ap_by_zone`'s rows as CSV, each with the `extra` columns first; written atomically."""
+    _write_region_csv(path, {"zone": lambda r: r.zone}, rows, extra)
+
+
+def _region_table(heading: str, rows: list[RegionAp], region: Callable) -> str:
+    """One line per region (`region`: a row's name and sort key): 3D and BEV AP R40, the labelled boxes, the
+    detections, the median points per box at t and the share of boxes with a point at t and in t-2..t."""
+    lines = [f"{heading:<26} 3D AP@R40  BEV AP@R40  truth  detections  median points  seen t  seen t-2..t"]
+    r40 = {(region(r), r.iou): r for r in rows if r.recall_points == 40}
+    for (name, _), three in sorted(((k, r) for k, r in r40.items() if k[1] == "3d"), key=lambda kr: kr[0][0][1]):
+        bev = r40[(name, "bev")]
+        lines.append(f"{name[0]:<26} {three.ap:9.2f}  {bev.ap:10.2f}  {three.truth:5d}  {three.detections:10d}  "
+                     f"{three.median_points:13g}  {three.seen_t:6.1%}  {three.seen_window:11.1%}")
+    if any(r.truth < MEANINGFUL_TRUTH for r in rows):
+        lines.append(f"note: regions of fewer than {MEANINGFUL_TRUTH} labelled boxes give coarse AP")
+    return "\n".join(lines)
 
 
 def format_distance_table(rows: list[DistanceRow]) -> str:
-    """One line per bin: 3D and BEV AP R40, the labelled boxes, the detections, the median points per box at t and
-    the share of boxes with a point at t and in t-2..t."""
-    lines = ["distance from the sensor   3D AP@R40  BEV AP@R40  truth  detections  median points  seen t  seen t-2..t"]
-    r40 = {(r.low_m, r.iou): r for r in rows if r.recall_points == 40}
-    for low, high in sorted({(r.low_m, r.high_m) for r in rows}):
-        three, bev = r40[(low, "3d")], r40[(low, "bev")]
-        lines.append(f"{f'{low:g}-{high:g} m':<26} {three.ap:9.2f}  {bev.ap:10.2f}  {three.truth:5d}  "
-                     f"{three.detections:10d}  {three.median_points:13g}  {three.seen_t:6.1%}  "
-                     f"{three.seen_window:11.1%}")
-    if any(r.truth < MEANINGFUL_TRUTH for r in rows):
-        lines.append(f"note: bins of fewer than {MEANINGFUL_TRUTH} labelled boxes give coarse AP")
-    return "\n".join(lines)
+    """`ap_by_distance`'s rows, one line per bin."""
+    return _region_table("distance from the sensor", rows, lambda r: (f"{r.low_m:g}-{r.high_m:g} m", r.low_m))
+
+
+def format_zone_table(rows: list[ZoneRow]) -> str:
+    """`ap_by_zone`'s rows, one line per zone."""
+    return _region_table("pitch zone", rows, lambda r: (r.zone, ZONES.index(r.zone)))
 
 
 def format_ap_table(rows: list[ApRow]) -> str:
@@ -236,23 +295,26 @@ class EvalResult:
     rows: list[ApRow]
     frames_per_s: float  # inference (none for tracklet files), loading included
     distance: list[DistanceRow] | None = None  # given a bin width
+    zone: list[ZoneRow] | None = None  # asked for
 
 
 def score(results: list[tuple[Sample, Detections]], dataset: str, by_distance_m: float | None,
-          start: float) -> EvalResult:
-    """The AP rows of detections on samples of `dataset` and, given a bin width in metres, AP by distance from its
-    sensor; `start`: the `time.perf_counter()` at which reading began."""
+          start: float, by_zone: bool = False) -> EvalResult:
+    """The AP rows of detections on samples of `dataset`, given a bin width in metres AP by distance from its
+    sensor, and with `by_zone` AP by pitch zone; `start`: the `time.perf_counter()` at which reading began."""
     data = simgen.datasets.open(dataset)
     points = object_points(data, [s for s, _ in results])
     rows = average_precisions(results, [p.sum(axis=1) > 0 for p in points])
     distance = None if by_distance_m is None else ap_by_distance(results, sensor_positions(data), by_distance_m, points)
-    return EvalResult(rows, len(results) / (time.perf_counter() - start), distance)
+    zone = ap_by_zone(results, points) if by_zone else None
+    return EvalResult(rows, len(results) / (time.perf_counter() - start), distance, zone)
 
 
 def evaluate(model: Detector, config: DetectorConfig, dataset: str, split: str | None, device: torch.device,
-             progress: bool = True, by_distance_m: float | None = None) -> EvalResult:
+             progress: bool = True, by_distance_m: float | None = None, by_zone: bool = False) -> EvalResult:
     start = time.perf_counter()
-    return score(list(predict(model, config, dataset, split, device, progress)), dataset, by_distance_m, start)
+    return score(list(predict(model, config, dataset, split, device, progress)), dataset, by_distance_m, start,
+                 by_zone)
 
 
 def measure_name(row: ApRow) -> str:

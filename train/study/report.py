@@ -223,6 +223,21 @@ def tracking_sections(trackers: list[TrackerResult], filters: dict[str, FilterCh
     return lines
 
 
+def zone_sections(by_zone: dict[str, list[TrackerResult]]) -> list[str]:
+    """Table 2 by pitch zone (`track_by_zone`), one table per zone and IoU."""
+    lines = ["## By pitch zone", "",
+             "Each tracker on its filtered tracklets; its tracks and the labels cut, frame by frame, to the boxes "
+             "whose centre is in the zone (train.evaluation.zones: the paper's detection box, [-40, 40] m in x and y, "
+             "and the rest of the pitch), then scored as above. A box on one side of the edge and its player on the "
+             "other count as a miss and a false positive."]
+    for zone, results in by_zone.items():
+        for iou in sorted({r.min_iou for r in results}):
+            truth = next(r.metrics.best.n_gt for r in results if r.min_iou == iou)
+            lines += ["", f"### {zone}, 3D IoU >= {iou:g} ({truth} labelled boxes)", "", *table2_head()]
+            lines += [table2_row(r.tracker, tracker_values(r)) for r in results if r.min_iou == iou]
+    return lines
+
+
 def modules_markdown(counts: dict[str, ModuleCounts], pairs: dict[str, ClosePairs]) -> list[str]:
     """What birth/death and split did, per tracker, and the close players the split is for
     (train.evaluation.tracker_modules)."""
@@ -258,6 +273,7 @@ def modules_markdown(counts: dict[str, ModuleCounts], pairs: dict[str, ClosePair
 def tracking_markdown(
     command: str, tracked: ClipSet, trackers: list[TrackerResult], filters: dict[str, FilterChoice], chosen_on: str,
     counts: dict[str, ModuleCounts], pairs: dict[str, ClosePairs], seconds: float,
+    by_zone: dict[str, list[TrackerResult]] | None = None,
 ) -> str:
     """`simgen-train table2`'s Table 2: tracklet files already written, each tracker on them against the labels."""
     frames = sum(len(tracked.frames[c]) for c in tracked.clips)
@@ -270,6 +286,8 @@ def tracking_markdown(
         "",
     ]
     lines += [*tracking_sections(trackers, filters, chosen_on), "", *modules_markdown(counts, pairs)]
+    if by_zone is not None:
+        lines += ["", *zone_sections(by_zone)]
     return "\n".join(lines) + "\n"
 
 
@@ -327,8 +345,8 @@ def table2_csv(result: StudyResult) -> str:
     return tracking_csv(result.trackers, result.filters)
 
 
-def tracking_csv(trackers: list[TrackerResult], filters: dict[str, FilterChoice]) -> str:
-    """Table 2 as CSV: a row per tracker, tracklets (filtered or not) and IoU."""
+def _tracker_rows(trackers: list[TrackerResult], filters: dict[str, FilterChoice]) -> list[list[object]]:
+    """Table 2's CSV rows (header first): a row per tracker, tracklets (filtered or not) and IoU."""
     rows: list[list[object]] = [["tracker", "tracklets", "min_iou", "samota", "amota", "amotp", "mota", "motp", "ids",
                                  "frag", "tp", "fp", "fn", "n_gt", "best_threshold", "recall_levels_reached", "hota",
                                  "deta", "assa", "centre_hota", "filter"]]
@@ -339,6 +357,19 @@ def tracking_csv(trackers: list[TrackerResult], filters: dict[str, FilterChoice]
                      b.tp, b.fp, b.fn, b.n_gt, f"{m.best_threshold:.4f}", m.levels_reached,
                      *(f"{v:.4f}" for v in (r.hota.hota, r.hota.deta, r.hota.assa, r.centre_hota.hota)),
                      filters[r.tracker].chosen.label if r.filtered else "none"])
+    return rows
+
+
+def tracking_csv(trackers: list[TrackerResult], filters: dict[str, FilterChoice]) -> str:
+    """Table 2 as CSV: a row per tracker, tracklets (filtered or not) and IoU."""
+    return _csv(_tracker_rows(trackers, filters))
+
+
+def zone_csv(by_zone: dict[str, list[TrackerResult]], filters: dict[str, FilterChoice]) -> str:
+    """Table 2 by pitch zone (`track_by_zone`) as CSV: Table 2's columns after a `zone` column."""
+    rows = [["zone", *_tracker_rows([], filters)[0]]]
+    for zone, results in by_zone.items():
+        rows += [[zone, *row] for row in _tracker_rows(results, filters)[1:]]
     return _csv(rows)
 
 

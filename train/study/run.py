@@ -53,6 +53,7 @@ from train.evaluation.hota import Hota, centre_hota, hota
 from train.evaluation.tracker_modules import ClosePairs, ModuleCounts, close_pairs, count_modules
 from train.evaluation.tracking import TrackingMetrics, evaluate_tracking
 from train.evaluation.truth import TruthIds
+from train.evaluation.zones import ZONES, tracks_in_zone, truth_in_zone
 from train.fit import CHECKPOINT_NAME, fit
 from train.parent_death import die_with_parent
 from train.study.tracklet_filter import FilterScore, TrackletFilter, apply_filter, choose_filters
@@ -396,6 +397,13 @@ def split_window_pairs(
     }
 
 
+def _scored(config: TrackerConfig, filtered: bool, truth: list, tracks: list) -> list[TrackerResult]:
+    """A tracker's tracks on clips scored against their labels at each of MIN_IOUS, HOTA beside."""
+    scores = (hota(truth, tracks), centre_hota(truth, tracks))
+    return [TrackerResult(config.name, filtered, iou, evaluate_tracking(truth, tracks, min_iou=iou), *scores)
+            for iou in MIN_IOUS]
+
+
 def track(
     val: ClipSet, configs: list[TrackerConfig], filters: dict[str, FilterChoice], progress: bool
 ) -> list[TrackerResult]:
@@ -405,11 +413,27 @@ def track(
     results = []
     runs = [(config, filtered) for filtered in (True, False) for config in configs]
     for config, filtered in tqdm(runs, desc="track", unit="tracker", disable=not progress, dynamic_ncols=True):
-        tracks = run_tracker(config, val, filters[config.name].chosen if filtered else None)
-        scores = (hota(truth, tracks), centre_hota(truth, tracks))
-        results += [TrackerResult(config.name, filtered, iou, evaluate_tracking(truth, tracks, min_iou=iou), *scores)
-                    for iou in MIN_IOUS]
+        results += _scored(config, filtered, truth, run_tracker(config, val, filters[config.name].chosen if filtered
+                                                                else None))
     return results
+
+
+def track_by_zone(
+    val: ClipSet, configs: list[TrackerConfig], filters: dict[str, FilterChoice]
+) -> dict[str, list[TrackerResult]]:
+    """Table 2 in each pitch zone (train.evaluation.zones): every tracker on its filtered tracklets, then its tracks
+    and the labels cut, frame by frame, to the boxes whose centre is in the zone, scored at each of MIN_IOUS (zones
+    with no labelled box left out). A
+    player crossing the zone's edge leaves one zone's ground truth and enters the other's; a track box on one side
+    of the edge and its player on the other count as a miss and a false positive."""
+    tracks = {config.name: run_tracker(config, val, filters[config.name].chosen) for config in configs}
+    by_zone = {}
+    for k, zone in enumerate(ZONES):
+        truth = [truth_in_zone(val.truth[c], k) for c in val.clips]
+        if any(len(frame.ids) for clip in truth for frame in clip):
+            by_zone[zone] = [r for config in configs
+                             for r in _scored(config, True, truth, [tracks_in_zone(c, k) for c in tracks[config.name]])]
+    return by_zone
 
 
 def run_study(options: StudyOptions, scenario: Scenario) -> StudyResult:
