@@ -37,11 +37,19 @@ class KalmanConfig:
     measurement_variance: float = 1.0
 
     @cached_property
+    def initial_covariance(self) -> NDArray[np.float64]:
+        """(10, 10) diagonal, read-only."""
+        return _read_only(np.diag([self.initial_variance] * MEASURE_DIM + [self.initial_velocity_variance] * 3))
+
+    @cached_property
     def process_noise(self) -> NDArray[np.float64]:
         """(10, 10) diagonal, read-only."""
-        noise = np.diag([self.process_variance] * MEASURE_DIM + [self.process_velocity_variance] * 3)
-        noise.flags.writeable = False
-        return noise
+        return _read_only(np.diag([self.process_variance] * MEASURE_DIM + [self.process_velocity_variance] * 3))
+
+
+def _read_only(array: NDArray[np.float64]) -> NDArray[np.float64]:
+    array.flags.writeable = False
+    return array
 
 
 # For players seen at 10 Hz: boxes good to about 0.1 m (0.1 rad), accelerations up to about 5 m/s^2
@@ -70,8 +78,7 @@ def init_state(boxes: NDArray[np.float64], config: KalmanConfig) -> KalmanState:
     """Tracks at rest at boxes (K, 7)."""
     mean = np.zeros((len(boxes), STATE_DIM))
     mean[:, :MEASURE_DIM] = boxes[:, _BOX_TO_STATE]
-    variance = [config.initial_variance] * MEASURE_DIM + [config.initial_velocity_variance] * 3
-    return KalmanState(mean, np.broadcast_to(np.diag(variance), (len(boxes), STATE_DIM, STATE_DIM)).copy())
+    return KalmanState(mean, np.repeat(config.initial_covariance[None], len(boxes), axis=0))
 
 
 def predict(state: KalmanState, config: KalmanConfig) -> KalmanState:
