@@ -122,7 +122,9 @@ def _clipped_area(a: Boxes, b: Boxes) -> NDArray[np.float64]:
     valid.reshape(6, 2, 2, k)[2:] &= steep.transpose(1, 0, 2)[:, :, None]
 
     count = valid.sum(axis=0)
-    rel = points - (points * valid).sum(axis=1, keepdims=True) / np.maximum(count, 1)  # about the pivot
+    # Summed as (24, x and y and K) numpy adds the candidates one after another (a contiguous axis it sums pairwise).
+    weighted = np.multiply(points.transpose(1, 0, 2), valid[:, None], out=np.empty((_CANDIDATES, 2, k)))
+    rel = points - weighted.sum(axis=0)[:, None] / np.maximum(count, 1)  # about the pivot
     # Pseudo-angle: increases with the true angle about the pivot, cheaper than arctan2.
     size = np.abs(rel)
     span = size[0] + size[1]
