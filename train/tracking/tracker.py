@@ -127,12 +127,12 @@ class Tracker:
             tracks = append(tracks, new_tracks(boxes[born, -self._kept :], scores[born], self._next_id, self.kalman))
             self._next_id += len(born)
         self._tracks = tracks
-        confirmed = life_cycle.confirmed(tracks.hits, life)
-        shown = confirmed | (life.warm_up and self._frames <= life.min_hits)
+        confirmed_now = life_cycle.confirmed(tracks.hits, life)
+        shown = confirmed_now | (life.warm_up and self._frames <= life.min_hits)
         if not life.output_dying:
             shown &= tracks.misses == 0
         out = motion_model.state_boxes(tracks.kalman) if self.config.output == "kalman" else tracks.boxes[:, -1]
-        state = np.where(confirmed, np.where(tracks.misses > 0, DYING, CONFIRMED), TENTATIVE)
+        state = np.where(confirmed_now, np.where(tracks.misses > 0, DYING, CONFIRMED), TENTATIVE)
         return TrackedFrame(out[shown], tracks.ids[shown], tracks.scores[shown], backfill, state[shown])
 
     def _backfill(
