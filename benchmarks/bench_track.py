@@ -16,9 +16,9 @@ tracker alone against AB3DMOT's config.
    time, median of rounds alternating: the paper's full tracker against AB3DMOT's algorithm as configured
    here (1_ab3dmot.yaml; AB3DMOT's own code is not on PyPI, see bench_tracking.py).
 
-Writes benchmarks/results/track.md.
+Writes benchmarks/results/track.md; `--tracker-only` measures 2. alone and rewrites only its section there.
 
-Usage: .venv/bin/python benchmarks/bench_track.py [--frames 60] [--rounds 5]
+Usage: .venv/bin/python benchmarks/bench_track.py [--frames 60] [--rounds 5] [--tracker-only]
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from table import machine, markdown_table, write_results
+from table import RESULTS_DIR, machine, markdown_table, write_results
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -55,6 +55,7 @@ from train.tracking.tracker import Tracker
 
 RATE_HZ = 11.0
 PLAYERS = 25
+TRACKER_SECTION = "\n\nThe tracker alone, "  # the results file's last section, from this paragraph to the end
 
 
 def make_bag(folder: Path, frames: int) -> Path:
@@ -99,6 +100,21 @@ def tracker_rates(frames: int, rounds: int) -> dict[str, float]:
     return {name: statistics.median(r) for name, r in rates.items()}
 
 
+def tracker_section(frames: int, rounds: int) -> str:
+    """The tracker-alone paragraph and table of the results file, measured now (starts with TRACKER_SECTION)."""
+    rates = tracker_rates(frames, rounds)
+    rows = [["AB3DMOT's algorithm (1_ab3dmot.yaml)", f"{rates['AB3DMOT']:,.0f}", "1.00"],
+            ["the paper's full tracker (5_diou_birth_death_split.yaml)", f"{rates['full']:,.0f}",
+             f"{rates['full'] / rates['AB3DMOT']:.2f}"]]
+    for cells in rows:
+        print(cells, flush=True)
+    return (
+        f"{TRACKER_SECTION}{PLAYERS} players, {frames} frames of noisy tracklets (tests.support.tracking_clips), "
+        f"frames/s of process CPU time, median of {rounds} rounds alternating, at load {os.getloadavg()[0]:.1f}:"
+        f"\n\n{markdown_table(['tracker', 'frames/s', 'ratio to AB3DMOT'], rows)}"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=60, help="frames of the paper_x1 clip")
@@ -106,7 +122,18 @@ def main() -> None:
     parser.add_argument("--tracker-frames", type=int, default=600)
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--out", type=Path, default=None, help="results file (default: benchmarks/results/track.md)")
+    parser.add_argument("--tracker-only", action="store_true",
+                        help="measure the tracker alone and rewrite only its section of the results file, "
+                             "keeping the rest (the file must hold one, written by a full run)")
     args = parser.parse_args()
+    if args.tracker_only:
+        path = args.out or RESULTS_DIR / "track.md"
+        head, found, _ = (path.read_text() if path.is_file() else "").partition(TRACKER_SECTION)
+        if not found:
+            parser.error(f"{path}: no tracker section to replace; run bench_track.py without --tracker-only first")
+        path.write_text(head + tracker_section(args.tracker_frames, args.rounds) + "\n")
+        print(f"wrote {path}", flush=True)
+        return
     torch.set_num_threads(1)
     model = compact_late(args.detections)
     with tempfile.TemporaryDirectory() as folder:
@@ -120,12 +147,9 @@ def main() -> None:
     latency_rows = [[name, f"{np.percentile(v, 50):.1f}", f"{np.percentile(v, 99):.1f}", f"{v.max():.1f}"]
                     for name, v in columns]
     rtf = f"{total.mean() / period_ms:.2f} (p99 {np.percentile(total, 99) / period_ms:.2f})"
-    rates = tracker_rates(args.tracker_frames, args.rounds)
-    tracker_rows = [["AB3DMOT's algorithm (1_ab3dmot.yaml)", f"{rates['AB3DMOT']:,.0f}", "1.00"],
-                    ["the paper's full tracker (5_diou_birth_death_split.yaml)", f"{rates['full']:,.0f}",
-                     f"{rates['full'] / rates['AB3DMOT']:.2f}"]]
-    for cells in latency_rows + tracker_rows:
+    for cells in latency_rows:
         print(cells, flush=True)
+    tracker = tracker_section(args.tracker_frames, args.rounds)
     write_results(
         "track", "Online tracking benchmark",
         f"Written by `benchmarks/bench_track.py`: one paper_x1 clip of {args.frames} frames read from its ROS 2 bag "
@@ -138,10 +162,7 @@ def main() -> None:
         markdown_table(["stage", "p50", "p99", "max"], latency_rows),
         f"Real-time factor at {RATE_HZ:g} Hz (CPU time per frame over one {period_ms:.1f} ms period; under 1 keeps "
         f"up): {rtf}. Paced at {RATE_HZ:g} Hz (`--rate {RATE_HZ:g}`, wall time, at this load): {paced.late} of "
-        f"{paced.frames + paced.dropped} frames late, {paced.dropped} dropped.",
-        f"The tracker alone, {PLAYERS} players, {args.tracker_frames} frames of noisy tracklets "
-        f"(tests.support.tracking_clips), frames/s of process CPU time, median of {args.rounds} rounds alternating:",
-        markdown_table(["tracker", "frames/s", "ratio to AB3DMOT"], tracker_rows),
+        f"{paced.frames + paced.dropped} frames late, {paced.dropped} dropped." + tracker,
         out=args.out,
     )
 

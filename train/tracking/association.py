@@ -65,6 +65,11 @@ def diou_upper_bound(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[
     return may_overlap - far * far
 
 
+def _frames_first(boxes: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Boxes (M, F, 7) as (F, M, 7), each column [..., i] contiguous: numpy's loops then run over M."""
+    return np.ascontiguousarray(boxes.transpose(2, 1, 0)).transpose(1, 2, 0)
+
+
 def diou_affinity(
     tracklet_boxes: NDArray[np.float64],
     trajectory_boxes: NDArray[np.float64],
@@ -79,8 +84,8 @@ def diou_affinity(
     affinity = np.full((n, k), -np.inf)
     if n == 0 or k == 0:
         return affinity
-    a, b = tracklet_boxes[:, None], trajectory_boxes[None]  # (N, 1, F, 7), (1, K, F, 7)
-    bound = diou_upper_bound(a, b) @ np.asarray(weights)
+    a, b = _frames_first(tracklet_boxes)[:, :, None], _frames_first(trajectory_boxes)[:, None]  # (F, N | 1, 1 | K, 7)
+    bound = np.ascontiguousarray(diou_upper_bound(a, b).transpose(1, 2, 0)) @ np.asarray(weights)
     rows, cols = np.nonzero(bound >= lower_bound)
     if len(rows):
         frames = len(weights)

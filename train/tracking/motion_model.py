@@ -9,6 +9,7 @@ AB3DMOT's orientation correction does, written as one wrap.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -16,12 +17,13 @@ from numpy.typing import NDArray
 
 STATE_DIM = 10
 MEASURE_DIM = 7
-_BOX_TO_STATE = [0, 1, 2, 6, 3, 4, 5]  # box (x, y, z, l, w, h, yaw) -> state order (x, y, z, yaw, l, w, h)
-_STATE_TO_BOX = [0, 1, 2, 4, 5, 6, 3]
+_BOX_TO_STATE = np.array([0, 1, 2, 6, 3, 4, 5])  # box (x, y, z, l, w, h, yaw) -> state order (x, y, z, yaw, l, w, h)
+_STATE_TO_BOX = np.array([0, 1, 2, 4, 5, 6, 3])
 _YAW = 3
 
 _TRANSITION = np.eye(STATE_DIM)
 _TRANSITION[0:3, 7:10] = np.eye(3)  # position += velocity
+_MEASURE_EYE = np.eye(MEASURE_DIM)
 
 
 @dataclass(frozen=True)
@@ -34,8 +36,20 @@ class KalmanConfig:
     process_velocity_variance: float = 0.01
     measurement_variance: float = 1.0
 
+    @cached_property
+    def initial_covariance(self) -> NDArray[np.float64]:
+        """(10, 10) diagonal, read-only."""
+        return _read_only(np.diag([self.initial_variance] * MEASURE_DIM + [self.initial_velocity_variance] * 3))
+
+    @cached_property
     def process_noise(self) -> NDArray[np.float64]:
-        return np.diag([self.process_variance] * MEASURE_DIM + [self.process_velocity_variance] * 3)
+        """(10, 10) diagonal, read-only."""
+        return _read_only(np.diag([self.process_variance] * MEASURE_DIM + [self.process_velocity_variance] * 3))
+
+
+def _read_only(array: NDArray[np.float64]) -> NDArray[np.float64]:
+    array.flags.writeable = False
+    return array
 
 
 # For players seen at 10 Hz: boxes good to about 0.1 m (0.1 rad), accelerations up to about 5 m/s^2
@@ -64,14 +78,13 @@ def init_state(boxes: NDArray[np.float64], config: KalmanConfig) -> KalmanState:
     """Tracks at rest at boxes (K, 7)."""
     mean = np.zeros((len(boxes), STATE_DIM))
     mean[:, :MEASURE_DIM] = boxes[:, _BOX_TO_STATE]
-    variance = [config.initial_variance] * MEASURE_DIM + [config.initial_velocity_variance] * 3
-    return KalmanState(mean, np.broadcast_to(np.diag(variance), (len(boxes), STATE_DIM, STATE_DIM)).copy())
+    return KalmanState(mean, np.repeat(config.initial_covariance[None], len(boxes), axis=0))
 
 
 def predict(state: KalmanState, config: KalmanConfig) -> KalmanState:
     """The state one frame later."""
     mean = state.mean @ _TRANSITION.T
-    covariance = _TRANSITION @ state.covariance @ _TRANSITION.T + config.process_noise()
+    covariance = _TRANSITION @ state.covariance @ _TRANSITION.T + config.process_noise
     return KalmanState(mean, covariance)
 
 
@@ -80,7 +93,7 @@ def update(state: KalmanState, boxes: NDArray[np.float64], config: KalmanConfig)
     innovation = boxes[:, _BOX_TO_STATE] - state.mean[:, :MEASURE_DIM]
     innovation[:, _YAW] = (innovation[:, _YAW] + np.pi / 2) % np.pi - np.pi / 2
     cross = state.covariance[:, :, :MEASURE_DIM]  # P H^T, (K, 10, 7)
-    system = cross[:, :MEASURE_DIM] + config.measurement_variance * np.eye(MEASURE_DIM)  # H P H^T + R
+    system = cross[:, :MEASURE_DIM] + config.measurement_variance * _MEASURE_EYE  # H P H^T + R
     gain = np.linalg.solve(system, cross.transpose(0, 2, 1)).transpose(0, 2, 1)  # S is symmetric
     mean = state.mean + np.einsum("kij,kj->ki", gain, innovation)
     mean[:, _YAW] = (mean[:, _YAW] + np.pi) % (2 * np.pi) - np.pi

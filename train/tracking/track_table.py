@@ -36,9 +36,6 @@ class TrackTable:
     def kalman(self) -> KalmanState:
         return KalmanState(self.mean, self.covariance)
 
-    def take(self, index: NDArray[np.intp] | NDArray[np.bool_]) -> TrackTable:
-        return TrackTable(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
-
 
 def new_tracks(
     boxes: NDArray[np.float64], scores: NDArray[np.float64], first_id: int, config: KalmanConfig
@@ -72,25 +69,27 @@ def end_frame(
     past boxes replace the older ones) and their scores (K,); the Kalman filter measures the last
     box. The others add their predicted box. Matched scores add to the tracks' score sums.
     """
-    state = predicted
-    if matched.any():
-        updated = motion_model.update(
-            KalmanState(predicted.mean[matched], predicted.covariance[matched]), measured[matched, -1], kalman
-        )
-        state = KalmanState(predicted.mean.copy(), predicted.covariance.copy())
-        state.mean[matched], state.covariance[matched] = updated.mean, updated.covariance
-    carried = np.concatenate([tracks.boxes[:, 1:], motion_model.state_boxes(predicted)[:, None]], axis=1)
     hits, misses = life_cycle.count_frame(tracks.hits, tracks.misses, matched)
+    keep = life_cycle.survives(hits, misses, rules).nonzero()[0]  # every matched track among them
+    carried = np.concatenate([tracks.boxes[keep, 1:], motion_model.state_boxes(predicted)[keep, None]], axis=1)
     table = TrackTable(
-        ids=tracks.ids,
-        boxes=np.where(matched[:, None, None], measured, carried),
-        mean=state.mean,
-        covariance=state.covariance,
-        hits=hits,
-        misses=misses,
-        score_sum=tracks.score_sum + np.where(matched, scores, 0.0),
+        ids=tracks.ids[keep],
+        boxes=carried,
+        mean=predicted.mean[keep],
+        covariance=predicted.covariance[keep],
+        hits=hits[keep],
+        misses=misses[keep],
+        score_sum=(tracks.score_sum + np.where(matched, scores, 0.0))[keep],
     )
-    return table.take(life_cycle.survives(hits, misses, rules))
+    rows = matched.nonzero()[0]
+    if len(rows):
+        updated = motion_model.update(
+            KalmanState(predicted.mean[rows], predicted.covariance[rows]), measured[rows, -1], kalman
+        )
+        fresh = matched[keep]
+        table.boxes[fresh] = measured[rows]
+        table.mean[fresh], table.covariance[fresh] = updated.mean, updated.covariance
+    return table
 
 
 def append(tracks: TrackTable, newborn: TrackTable) -> TrackTable:

@@ -97,16 +97,18 @@ class Tracker:
         used = np.zeros(len(boxes), dtype=bool)
 
         def associate(trajectories: NDArray[np.intp], lower_bound: float) -> None:
-            free = np.flatnonzero(~used)
-            rows, cols = match(affinity[np.ix_(free, trajectories)], lower_bound)
+            free = (~used).nonzero()[0]
+            if not len(free) or not len(trajectories):
+                return
+            rows, cols = match(affinity[free[:, None], trajectories], lower_bound)
             source[trajectories[cols]] = free[rows]
             used[free[rows]] = True
 
         if cfg.cascade:
-            associate(np.flatnonzero(confirmed & (tracks.misses == 0)), cfg.lower_bound)
+            associate((confirmed & (tracks.misses == 0)).nonzero()[0], cfg.lower_bound)
             if dying_stage:
-                associate(np.flatnonzero(confirmed & (source < 0)), cfg.dying_lower_bound)
-            associate(np.flatnonzero(~confirmed), cfg.lower_bound)
+                associate((confirmed & (source < 0)).nonzero()[0], cfg.dying_lower_bound)
+            associate((~confirmed).nonzero()[0], cfg.lower_bound)
         else:
             associate(np.arange(len(tracks.ids)), cfg.lower_bound)
         matched = source >= 0
@@ -120,16 +122,17 @@ class Tracker:
 
         backfill = self._backfill(tracklets, source, matched & ~confirmed, matched_scores) if life.backfill else ()
         tracks = end_frame(tracks, predicted, matched, measured, matched_scores, self.kalman, life)
-        born = np.flatnonzero(~used)
-        tracks = append(tracks, new_tracks(boxes[born, -self._kept :], scores[born], self._next_id, self.kalman))
-        self._next_id += len(born)
+        born = (~used).nonzero()[0]
+        if len(born):
+            tracks = append(tracks, new_tracks(boxes[born, -self._kept :], scores[born], self._next_id, self.kalman))
+            self._next_id += len(born)
         self._tracks = tracks
-        shown = life_cycle.confirmed(tracks.hits, life) | (life.warm_up and self._frames <= life.min_hits)
+        confirmed_now = life_cycle.confirmed(tracks.hits, life)
+        shown = confirmed_now | (life.warm_up and self._frames <= life.min_hits)
         if not life.output_dying:
             shown &= tracks.misses == 0
         out = motion_model.state_boxes(tracks.kalman) if self.config.output == "kalman" else tracks.boxes[:, -1]
-        state = np.where(life_cycle.confirmed(tracks.hits, life), np.where(tracks.misses > 0, DYING, CONFIRMED),
-                         TENTATIVE)
+        state = np.where(confirmed_now, np.where(tracks.misses > 0, DYING, CONFIRMED), TENTATIVE)
         return TrackedFrame(out[shown], tracks.ids[shown], tracks.scores[shown], backfill, state[shown])
 
     def _backfill(
@@ -138,7 +141,7 @@ class Tracker:
         """Frames t-n..t-1 (n = min(min_hits - 1, 2)) of the trajectories this frame confirms, from the
         boxes of the tracklet that confirms them, scored with their mean score."""
         tracks, need = self._tracks, life_cycle.hits_to_confirm(self.config.life_cycle)
-        newly = np.flatnonzero(tentative & (tracks.hits + 1 >= need))
+        newly = (tentative & (tracks.hits + 1 >= need)).nonzero()[0]
         frames = min(need - 1, _OVERLAP.stop)
         if not len(newly) or frames < 1:
             return ()
@@ -155,11 +158,11 @@ class Tracker:
         confirmed (a new trajectory may be a duplicate): both trajectories of each such pair."""
         tracks, config = self._tracks, self._split_rules
         confirmed = life_cycle.confirmed(tracks.hits, self.config.life_cycle)
-        partners = np.flatnonzero((source >= 0) & confirmed)
-        orphans = np.flatnonzero((source < 0) & confirmed)
+        partners = ((source >= 0) & confirmed).nonzero()[0]
+        orphans = ((source < 0) & confirmed).nonzero()[0]
         previous = tracks.boxes[:, 1]
-        gap = np.linalg.norm(previous[partners, None, :2] - previous[None, orphans, :2], axis=-1)
-        near = gap <= config.max_pair_gap_m
+        offset = previous[partners, None, :2] - previous[None, orphans, :2]  # (P, O, 2)
+        near = np.sqrt(offset[..., 0] ** 2 + offset[..., 1] ** 2) <= config.max_pair_gap_m
         if not near.any():
             self._fused = set()
             return np.empty(0, dtype=np.intp), np.empty((0, 2, 7)), np.empty(0, dtype=np.intp)
