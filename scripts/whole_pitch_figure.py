@@ -1,8 +1,8 @@
 """The whole-pitch study's figure (docs/whole_pitch_study.md): 3D AP and sAMOTA in each pitch zone, rig beside rig.
 
     .venv/bin/python scripts/whole_pitch_figure.py -o studies/whole_pitch/zones.png \\
-        --ap "two Mid-100 behind the goals, late=studies/whole_pitch/whole_mid100_goals/late_ap_by_zone.csv" ... \\
-        --tracking "two Mid-100 behind the goals=studies/whole_pitch/whole_mid100_goals/table2_by_zone.csv" ...
+        --ap "goals, late=studies/whole_pitch/whole_mid100_goals_snapshot_track_sizes/late_ap/ap_by_zone.csv" ... \\
+        --tracking "goals=studies/whole_pitch/whole_mid100_goals_snapshot_track_sizes/zones/table2_by_zone.csv" ...
 
 `--ap LABEL=PATH`: an `ap_by_zone.csv` of `simgen-train eval|score --by-zone` (3D AP R40). `--tracking LABEL=PATH`: a
 `table2_by_zone.csv` of `simgen-train table2 --by-zone` (sAMOTA of the paper's full tracker at 3D IoU 0.25).
