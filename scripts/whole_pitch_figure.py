@@ -33,12 +33,11 @@ def labelled(texts: list[str], parser: argparse.ArgumentParser) -> list[tuple[st
     return pairs
 
 
-def zone_values(path: Path, keep) -> list[float]:
-    """Per zone of ZONES, the value of the CSV's row that `keep` picks (NaN where the zone has none)."""
+def zone_values(path: Path, keep, value) -> list[float]:
+    """Per zone of ZONES, `value` of the CSV's row that `keep` picks (NaN where the zone has none)."""
     with open(path) as file:
         rows = {r["zone"]: r for r in csv.DictReader(file) if keep(r)}
-    return [float(rows[z]["ap"] if "ap" in rows[z] else 100 * float(rows[z]["samota"])) if z in rows else float("nan")
-            for z in ZONES]
+    return [value(rows[z]) if z in rows else float("nan") for z in ZONES]
 
 
 def bars(axes, series: list[tuple[str, list[float]]], ylabel: str) -> None:
@@ -60,11 +59,11 @@ def main() -> None:
     parser.add_argument("--ap", action="append", default=[], help="LABEL=PATH of an ap_by_zone.csv")
     parser.add_argument("--tracking", action="append", default=[], help="LABEL=PATH of a table2_by_zone.csv")
     args = parser.parse_args()
-    ap = [(label, zone_values(path, lambda r: (r["iou"], r["recall_points"]) == ("3d", "40")))
+    ap = [(label, zone_values(path, lambda r: (r["iou"], r["recall_points"]) == ("3d", "40"), lambda r: float(r["ap"])))
           for label, path in labelled(args.ap, parser)]
     full = load_tracker_config(TRACKER_CONFIGS / DEFAULT_TRACKER).name  # the paper's full tracker
     tracking = [(label, zone_values(path, lambda r: (r["tracker"], r["tracklets"], float(r["min_iou"])) ==
-                                    (full, "filtered", 0.25)))
+                                    (full, "filtered", 0.25), lambda r: 100 * float(r["samota"])))
                 for label, path in labelled(args.tracking, parser)]
     figure, (left, right) = plt.subplots(1, 2, figsize=(12, 4.5), dpi=110)
     bars(left, ap, "val 3D AP R40 (%), IoU 0.5")

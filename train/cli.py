@@ -65,7 +65,6 @@ from train.study.run import (
     seed_runs,
     split_window_pairs,
     track,
-    track_by_zone,
     tracklet_clip_set,
     tracklet_results,
 )
@@ -368,8 +367,8 @@ def _table2(args: argparse.Namespace) -> int:
         chosen_on = (f"chosen on {where} ({frames} frames): of the grid at the end, the filter under which that "
                      "tracker reaches its highest sAMOTA (IoU 0.25) there")
         filters = choose_tracklet_filters(choose_on, tracked, configs, not args.quiet, args.workers)
-    results = track(tracked, configs, filters, not args.quiet)
-    by_zone = track_by_zone(tracked, configs, filters) if args.by_zone else None
+    results, zoned = track(tracked, configs, filters, not args.quiet, args.by_zone)
+    by_zone = zoned if args.by_zone else None
     counts, pairs = module_counts(tracked, configs, filters), split_window_pairs(tracked, configs, filters)
     command = shlex.join(["simgen-train", "table2", *args.tracklets, "--dataset", args.dataset, "--config",
                           args.config, "-o", args.output, "--workers", str(args.workers)]

@@ -252,28 +252,28 @@ def write_zone_csv(path: Path, rows: list[ZoneRow], extra: dict[str, str]) -> No
     _write_region_csv(path, {"zone": lambda r: r.zone}, rows, extra)
 
 
-def _region_table(heading: str, rows: list[RegionAp], region: Callable) -> str:
-    """One line per region (`region`: a row's name and sort key): 3D and BEV AP R40, the labelled boxes, the
+def _region_table(heading: str, rows: list[RegionAp], name: Callable[[RegionAp], str], regions: str) -> str:
+    """One line per region, in the rows' order (`name`: a row's region): 3D and BEV AP R40, the labelled boxes, the
     detections, the median points per box at t and the share of boxes with a point at t and in t-2..t."""
     lines = [f"{heading:<26} 3D AP@R40  BEV AP@R40  truth  detections  median points  seen t  seen t-2..t"]
-    r40 = {(region(r), r.iou): r for r in rows if r.recall_points == 40}
-    for (name, _), three in sorted(((k, r) for k, r in r40.items() if k[1] == "3d"), key=lambda kr: kr[0][0][1]):
-        bev = r40[(name, "bev")]
-        lines.append(f"{name[0]:<26} {three.ap:9.2f}  {bev.ap:10.2f}  {three.truth:5d}  {three.detections:10d}  "
-                     f"{three.median_points:13g}  {three.seen_t:6.1%}  {three.seen_window:11.1%}")
+    bev = {name(r): r for r in rows if (r.iou, r.recall_points) == ("bev", 40)}
+    for three in (r for r in rows if (r.iou, r.recall_points) == ("3d", 40)):
+        lines.append(f"{name(three):<26} {three.ap:9.2f}  {bev[name(three)].ap:10.2f}  {three.truth:5d}  "
+                     f"{three.detections:10d}  {three.median_points:13g}  {three.seen_t:6.1%}  "
+                     f"{three.seen_window:11.1%}")
     if any(r.truth < MEANINGFUL_TRUTH for r in rows):
-        lines.append(f"note: regions of fewer than {MEANINGFUL_TRUTH} labelled boxes give coarse AP")
+        lines.append(f"note: {regions} of fewer than {MEANINGFUL_TRUTH} labelled boxes give coarse AP")
     return "\n".join(lines)
 
 
 def format_distance_table(rows: list[DistanceRow]) -> str:
     """`ap_by_distance`'s rows, one line per bin."""
-    return _region_table("distance from the sensor", rows, lambda r: (f"{r.low_m:g}-{r.high_m:g} m", r.low_m))
+    return _region_table("distance from the sensor", rows, lambda r: f"{r.low_m:g}-{r.high_m:g} m", "bins")
 
 
 def format_zone_table(rows: list[ZoneRow]) -> str:
     """`ap_by_zone`'s rows, one line per zone."""
-    return _region_table("pitch zone", rows, lambda r: (r.zone, ZONES.index(r.zone)))
+    return _region_table("pitch zone", rows, lambda r: r.zone, "zones")
 
 
 def format_ap_table(rows: list[ApRow]) -> str:

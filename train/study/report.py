@@ -224,7 +224,7 @@ def tracking_sections(trackers: list[TrackerResult], filters: dict[str, FilterCh
 
 
 def zone_sections(by_zone: dict[str, list[TrackerResult]]) -> list[str]:
-    """Table 2 by pitch zone (`track_by_zone`), one table per zone and IoU."""
+    """Table 2 by pitch zone (`track` with `by_zone`), one table per zone and IoU."""
     lines = ["## By pitch zone", "",
              "Each tracker on its filtered tracklets; its tracks and the labels cut, frame by frame, to the boxes "
              "whose centre is in the zone (train.evaluation.zones: the paper's detection box, [-40, 40] m in x and y, "
@@ -366,7 +366,7 @@ def tracking_csv(trackers: list[TrackerResult], filters: dict[str, FilterChoice]
 
 
 def zone_csv(by_zone: dict[str, list[TrackerResult]], filters: dict[str, FilterChoice]) -> str:
-    """Table 2 by pitch zone (`track_by_zone`) as CSV: Table 2's columns after a `zone` column."""
+    """Table 2 by pitch zone (`track` with `by_zone`) as CSV: Table 2's columns after a `zone` column."""
     rows = [["zone", *_tracker_rows([], filters)[0]]]
     for zone, results in by_zone.items():
         rows += [[zone, *row] for row in _tracker_rows(results, filters)[1:]]

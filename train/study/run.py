@@ -405,35 +405,25 @@ def _scored(config: TrackerConfig, filtered: bool, truth: list, tracks: list) ->
 
 
 def track(
-    val: ClipSet, configs: list[TrackerConfig], filters: dict[str, FilterChoice], progress: bool
-) -> list[TrackerResult]:
+    val: ClipSet, configs: list[TrackerConfig], filters: dict[str, FilterChoice], progress: bool, by_zone: bool = False
+) -> tuple[list[TrackerResult], dict[str, list[TrackerResult]]]:
     """Table 2: every tracker on every val clip, tracklets filtered by its own filter and unfiltered, scored at each of
-    MIN_IOUS."""
+    MIN_IOUS; with `by_zone`, also Table 2 in each pitch zone (train.evaluation.zones, else {}): each tracker's tracks
+    of its filtered tracklets and the labels cut, frame by frame, to the boxes whose centre is in the zone (zones with
+    no labelled box left out). A player crossing the zone's edge leaves one zone's ground truth and enters the
+    other's; a track box on one side of the edge and its player on the other count as a miss and a false positive."""
     truth = [val.truth[c] for c in val.clips]
-    results = []
+    zone_truth = {zone: [truth_in_zone(clip, k) for clip in truth] for k, zone in enumerate(ZONES)} if by_zone else {}
+    zone_truth = {z: t for z, t in zone_truth.items() if any(len(frame.ids) for clip in t for frame in clip)}
+    results: list[TrackerResult] = []
+    zoned: dict[str, list[TrackerResult]] = {zone: [] for zone in zone_truth}
     runs = [(config, filtered) for filtered in (True, False) for config in configs]
     for config, filtered in tqdm(runs, desc="track", unit="tracker", disable=not progress, dynamic_ncols=True):
-        results += _scored(config, filtered, truth, run_tracker(config, val, filters[config.name].chosen if filtered
-                                                                else None))
-    return results
-
-
-def track_by_zone(
-    val: ClipSet, configs: list[TrackerConfig], filters: dict[str, FilterChoice]
-) -> dict[str, list[TrackerResult]]:
-    """Table 2 in each pitch zone (train.evaluation.zones): every tracker on its filtered tracklets, then its tracks
-    and the labels cut, frame by frame, to the boxes whose centre is in the zone, scored at each of MIN_IOUS (zones
-    with no labelled box left out). A
-    player crossing the zone's edge leaves one zone's ground truth and enters the other's; a track box on one side
-    of the edge and its player on the other count as a miss and a false positive."""
-    tracks = {config.name: run_tracker(config, val, filters[config.name].chosen) for config in configs}
-    by_zone = {}
-    for k, zone in enumerate(ZONES):
-        truth = [truth_in_zone(val.truth[c], k) for c in val.clips]
-        if any(len(frame.ids) for clip in truth for frame in clip):
-            by_zone[zone] = [r for config in configs
-                             for r in _scored(config, True, truth, [tracks_in_zone(c, k) for c in tracks[config.name]])]
-    return by_zone
+        tracks = run_tracker(config, val, filters[config.name].chosen if filtered else None)
+        results += _scored(config, filtered, truth, tracks)
+        for zone, cut_truth in zone_truth.items() if filtered else ():
+            zoned[zone] += _scored(config, True, cut_truth, [tracks_in_zone(c, ZONES.index(zone)) for c in tracks])
+    return results, zoned
 
 
 def run_study(options: StudyOptions, scenario: Scenario) -> StudyResult:
@@ -463,6 +453,6 @@ def run_study(options: StudyOptions, scenario: Scenario) -> StudyResult:
     if detectors[0].config.data.split == "clip":  # the frame split's val windows are scattered: nothing to track
         workers = max(1, next(d.config for d in detectors if d.model == TRACKED_MODEL).train.workers)
         filters = choose_tracklet_filters(train, val, configs, options.progress, workers)
-        trackers = track(val, configs, filters, options.progress)
+        trackers, _ = track(val, configs, filters, options.progress)
     now = time.perf_counter()
     return StudyResult(dataset, detectors, trackers, filters, now - began, now - start, options.device.type)
