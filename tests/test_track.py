@@ -19,7 +19,8 @@ from tests.support.detector import tiny_config
 from tests.support.kitti_detections import write_detections
 from train.cli import main
 from train.detector.detections import kitti_lines
-from train.track.outputs import TRACKS_SCHEMA, TRACKS_TOPIC
+from train.track.outputs import TRACKS_SCHEMA, TRACKS_TOPIC, TRAIL_FRAMES, ClipBag
+from train.tracking.types import TrackedFrame
 
 PAPER_X1 = ROOT / "scenarios" / "paper_x1.yaml"
 FRAMES = 16
@@ -275,3 +276,19 @@ def test_an_id_switch_is_where_a_labelled_player_changes_track():
     labels = paths([1, 1, 1, 1], [0.0, 0.5, 1.0, 1.5])
     assert id_switches(labels, paths([5, 5, 7, 7], [0.1, 0.6, 1.1, 1.6])) == [(2, 1.0, 0.0)]
     assert id_switches(labels, paths([5, 5, 7, 7], [0.1, 0.6, 9.0, 1.6])) == [(3, 1.5, 0.0)]  # too far: no match
+
+
+@pytest.mark.engine
+def test_a_bag_keeps_the_trails_of_recent_tracks_only(tiny, tmp_path):
+    """A whole match makes thousands of tracks: the bag draws each one's last TRAIL_FRAMES centres, and forgets the
+    trails of tracks not shown for TRAIL_FRAMES frames (memory flat in the match's length)."""
+    dataset = simgen.datasets.open(tiny[0])
+    frame = dataset.frame(VAL, 0)
+    bag = ClipBag(tmp_path / "bag", list(dataset.manifest.sensors), simgen.datasets.formats.mcap.SIMGEN_LAYOUT)
+    box = np.array([[1.0, 2.0, 0.9, 0.6, 0.6, 1.8, 0.0]])
+    for k in range(3 * TRAIL_FRAMES + 10):  # track 0 every frame, track 1000 + k only in frame k
+        bag.add(frame, TrackedFrame(np.repeat(box, 2, axis=0), np.array([0, 1000 + k]), np.ones(2)))
+    bag.finish()
+    assert len(bag.trails[0]) == TRAIL_FRAMES
+    assert 1000 + TRAIL_FRAMES not in bag.trails and 1000 + 3 * TRAIL_FRAMES + 9 in bag.trails
+    assert len(bag.trails) <= 2 * TRAIL_FRAMES + 1

@@ -185,10 +185,10 @@ class FrameLog:
     def mean_scores(self, clip: int) -> dict[int, float]:
         return {track: float(np.mean(np.frombuffer(s))) for track, s in self.clips[clip].scores.items()}
 
-    def clear_mot(self, threshold: float, means: list[dict[int, float]], min_iou: float
-                  ) -> tuple[ClearMot, NDArray[np.float64]]:
-        """CLEAR MOT counts over every frame with the tracks whose mean score is at least threshold, and the true
-        positives' scores (train.evaluation.tracking's _Counter, chunk by chunk)."""
+    def clear_mot(self, threshold: float, means: list[dict[int, float]], min_iou: float, scores: bool = False
+                  ) -> tuple[ClearMot, NDArray[np.float64] | None]:
+        """CLEAR MOT counts over every frame with the tracks whose mean score is at least threshold, and with
+        `scores` the true positives' scores (train.evaluation.tracking's _Counter, chunk by chunk)."""
         switches = _Switches()
         n_gt = tp = kept_total = 0
         iou_sum, tp_scores = 0.0, []
@@ -206,15 +206,16 @@ class FrameLog:
                 tp += len(gt_slots)
                 kept_total += int(keep.sum())
                 iou_sum += chunk_iou
-                tp_scores.append(count.track_scores[track_slots])
+                if scores:
+                    tp_scores.append(count.track_scores[track_slots])
         ids, frag = switches.counts()
-        scores = np.concatenate(tp_scores) if tp_scores else np.zeros(0)
-        return ClearMot(n_gt, tp, kept_total - tp, n_gt - tp, ids, frag, iou_sum), scores
+        counts = ClearMot(n_gt, tp, kept_total - tp, n_gt - tp, ids, frag, iou_sum)
+        return counts, (np.concatenate(tp_scores) if tp_scores else np.zeros(0)) if scores else None
 
     def evaluate_tracking(self, min_iou: float = 0.25, levels: int = RECALL_LEVELS) -> TrackingMetrics:
         """train.evaluation.tracking.evaluate_tracking of the logged frames."""
         means = [self.mean_scores(c) for c in range(len(self.clips))]
-        everything, tp_scores = self.clear_mot(-np.inf, means, min_iou)
+        everything, tp_scores = self.clear_mot(-np.inf, means, min_iou, scores=True)
         samota = amota = amotp = 0.0
         best_mota, best_threshold = 0.0, -np.inf
         thresholds = recall_thresholds(tp_scores, everything.n_gt, levels) if everything.n_gt else []

@@ -80,14 +80,20 @@ class ClipCounts:
     """One clip's HOTA counts in two passes over its frames, in order: `align` each frame, `aligned`, then `match`
     each frame again; `counts`. Frames are (G, T) similarities with dense gt (G,) and track (T,) indices.
 
-    Only the id pairs that ever meet are kept (a dict by pair, not an n_gt x n_track matrix): memory grows with the
-    pairs of ids alive together, not with the square of a long clip's ids. Every pair's sums are made in frame
-    order, as a dense matrix would make them.
+    Only the id pairs that ever meet are kept, as sorted arrays of pair keys and sums (not an n_gt x n_track matrix,
+    nor a dict: 16 bytes a pair), merged every MERGE_ENTRIES new entries: memory grows with the pairs of ids alive
+    together, not with the square of a long clip's ids. Every pair's sums are made in frame order, one addition at
+    a time, as a dense matrix would make them.
     """
+
+    MERGE_ENTRIES = 1 << 16
 
     def __init__(self, n_gt: int, n_track: int) -> None:
         self.n_track = n_track
-        self.potential: dict[int, float] = {}  # pair key g * n_track + t -> summed per-frame alignment
+        self.keys = np.zeros(0, np.int64)  # sorted pair keys g * n_track + t of the pairs met so far
+        self.potential = np.zeros(0)  # each pair's summed per-frame alignment
+        self._pending: list[tuple[NDArray[np.int64], NDArray[np.float64]]] = []  # since the last merge
+        self._pending_entries = 0
         self.gt_count, self.track_count = np.zeros(n_gt), np.zeros(n_track)
         self.tp, self.fn, self.fp, self.loc = (np.zeros(len(ALPHAS)) for _ in range(4))
         self.matches: dict[int, NDArray[np.float64]] = {}  # pair key -> per alpha, frames matched
@@ -95,24 +101,38 @@ class ClipCounts:
     def _keys(self, g: NDArray[np.intp], t: NDArray[np.intp]) -> NDArray[np.int64]:
         return g.astype(np.int64)[:, None] * self.n_track + t[None, :]
 
+    def _merge(self) -> None:
+        """The pending shares added to their pairs' sums: each sum first, then its shares in frame order (bincount
+        adds in array order)."""
+        if not self._pending:
+            return
+        keys = np.concatenate([self.keys, *(k for k, _ in self._pending)])
+        values = np.concatenate([self.potential, *(v for _, v in self._pending)])
+        self.keys, inverse = np.unique(keys, return_inverse=True)
+        self.potential = np.bincount(inverse, weights=values, minlength=len(self.keys))
+        self._pending, self._pending_entries = [], 0
+
     def align(self, sim: NDArray[np.float64], g: NDArray[np.intp], t: NDArray[np.intp]) -> None:
         denominator = sim.sum(0)[None, :] + sim.sum(1)[:, None] - sim
         share = np.divide(sim, denominator, out=np.zeros_like(sim), where=denominator > _EPS)
         some = share != 0.0  # adding 0 changes no sum
-        potential = self.potential
-        for key, value in zip(self._keys(g, t)[some].tolist(), share[some].tolist()):
-            potential[key] = potential.get(key, 0.0) + value
+        self._pending.append((self._keys(g, t)[some], share[some]))
+        self._pending_entries += int(some.sum())
+        if self._pending_entries >= self.MERGE_ENTRIES:
+            self._merge()
         self.gt_count[g] += 1
         self.track_count[t] += 1
 
     def aligned(self) -> None:
-        gt_count, track_count, n = self.gt_count, self.track_count, self.n_track
-        self.alignment = {key: value / max(gt_count[key // n] + track_count[key % n] - value, _EPS)
-                          for key, value in self.potential.items()}
+        self._merge()
+        gt_count, track_count, n, value = self.gt_count, self.track_count, self.n_track, self.potential
+        self.alignment = value / np.maximum(gt_count[self.keys // n] + track_count[self.keys % n] - value, _EPS)
 
     def match(self, sim: NDArray[np.float64], g: NDArray[np.intp], t: NDArray[np.intp]) -> None:
         keys = self._keys(g, t)
-        alignment = np.array([self.alignment.get(k, 0.0) for k in keys.ravel().tolist()]).reshape(keys.shape)
+        at = np.minimum(np.searchsorted(self.keys, keys), max(len(self.keys) - 1, 0))
+        met = self.keys[at] == keys if len(self.keys) else np.zeros(keys.shape, bool)
+        alignment = np.where(met, self.alignment[at] if len(self.keys) else 0.0, 0.0)
         rows, cols = linear_sum_assignment(-(alignment * sim))
         matched = sim[rows, cols]
         ok = matched[None, :] >= ALPHAS[:, None] - _EPS  # (alphas, matched pairs)

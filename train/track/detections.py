@@ -92,7 +92,8 @@ class KittiClip:
     opened, each read again when its frame is asked for (`get`), so that memory stays flat in the clip's length."""
 
     def __init__(self, folder: Path, frames: int) -> None:
-        self.paths: dict[int, Path] = {}
+        self.folder = folder
+        self.has_file = np.zeros(frames, bool)  # a bit a frame, not a path: 54,000 frames in 54 kB
         for path in sorted(folder.iterdir()):
             match = FRAME_FILE.match(path.name)
             if not match or not path.is_file():
@@ -101,12 +102,11 @@ class KittiClip:
             if frame >= frames:
                 raise UserError(f"{path}: frame {frame} beyond the clip's {frames} frames")
             _read_kitti(path)
-            self.paths[frame] = path
+            self.has_file[frame] = True
 
     def get(self, frame: int, default: Tracklets) -> Tracklets:
         """The frame's detections as still tracklets; `default` where it has no file."""
-        path = self.paths.get(frame)
-        return default if path is None else _read_kitti(path)
+        return _read_kitti(self.folder / f"{frame:06d}.txt") if self.has_file[frame] else default
 
 
 class TrackletClip:

@@ -8,8 +8,8 @@ replaces OUT's files only once the whole run has succeeded (bad input half-way l
 - `mcap/<clip>/`: a ROS 2 bag (simgen.datasets.formats.mcap's writer: `<clip>.mcap` and rosbag2's metadata.yaml)
   with the frame's points and labels as simgen writes them, and `/simgen/tracks`: per frame DELETEALL, then
   per track a CUBE (namespace `tracks`, id = track id, one colour per id, dying tracks faint), its id as
-  TEXT_VIEW_FACING (`track_ids`) and its trajectory so far as a LINE_STRIP (`trajectories`, the last
-  TRAIL_FRAMES frames).
+  TEXT_VIEW_FACING (`track_ids`) and its trajectory so far as a LINE_STRIP (`trajectories`, its last
+  TRAIL_FRAMES boxes; a track not shown for TRAIL_FRAMES frames starts a new one).
 """
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ TRACKS_SCHEMA = pa.schema([
 
 
 def track_markers(tracked: TrackedFrame, trails: dict[int, deque], stamp_ns: int):
-    """The MarkerArray of one frame's tracks; `trails` (track id -> recent centres) is updated."""
+    """The MarkerArray of one frame's tracks; `trails` (track id -> its last TRAIL_FRAMES centres) is updated."""
     from simgen.view.trajectories import id_colour  # the drawing stack (numba) only when a bag is written
 
 
@@ -95,11 +95,19 @@ class ClipBag:
     def __init__(self, path: Path, sensors: Sequence, layout: PointLayout) -> None:
         self.writer = BagWriter(path, sensors, layout)
         self.trails: dict[int, deque] = {}
+        self.last_seen: dict[int, int] = {}  # track id -> the last frame (count in the bag) it was shown in
+        self.frames = 0
 
     def add(self, frame: Frame, tracked: TrackedFrame) -> None:
         self.writer.add(frame)
         stamp_ns = nanoseconds(frame.label_time_s)
         self.writer.write(TRACKS_TOPIC, SCHEMAS[1], track_markers(tracked, self.trails, stamp_ns), stamp_ns)
+        self.frames += 1
+        self.last_seen.update(dict.fromkeys(tracked.ids.tolist(), self.frames))
+        if self.frames % TRAIL_FRAMES == 0:  # the trails of tracks not shown for TRAIL_FRAMES frames: memory flat
+            gone = [track for track, seen in self.last_seen.items() if self.frames - seen >= TRAIL_FRAMES]
+            for track in gone:
+                del self.trails[track], self.last_seen[track]
 
     def finish(self) -> None:
         self.writer.finish()
