@@ -210,7 +210,7 @@ class FrameLog:
                     tp_scores.append(count.track_scores[track_slots])
         ids, frag = switches.counts()
         counts = ClearMot(n_gt, tp, kept_total - tp, n_gt - tp, ids, frag, iou_sum)
-        return counts, (np.concatenate(tp_scores) if tp_scores else np.zeros(0)) if scores else None
+        return counts, np.concatenate([np.zeros(0), *tp_scores]) if scores else None
 
     def evaluate_tracking(self, min_iou: float = 0.25, levels: int = RECALL_LEVELS) -> TrackingMetrics:
         """train.evaluation.tracking.evaluate_tracking of the logged frames."""

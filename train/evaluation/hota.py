@@ -130,9 +130,11 @@ class ClipCounts:
 
     def match(self, sim: NDArray[np.float64], g: NDArray[np.intp], t: NDArray[np.intp]) -> None:
         keys = self._keys(g, t)
-        at = np.minimum(np.searchsorted(self.keys, keys), max(len(self.keys) - 1, 0))
-        met = self.keys[at] == keys if len(self.keys) else np.zeros(keys.shape, bool)
-        alignment = np.where(met, self.alignment[at] if len(self.keys) else 0.0, 0.0)
+        at = np.searchsorted(self.keys, keys)
+        met = at < len(self.keys)
+        met[met] = self.keys[at[met]] == keys[met]
+        alignment = np.zeros(keys.shape)
+        alignment[met] = self.alignment[at[met]]
         rows, cols = linear_sum_assignment(-(alignment * sim))
         matched = sim[rows, cols]
         ok = matched[None, :] >= ALPHAS[:, None] - _EPS  # (alphas, matched pairs)
