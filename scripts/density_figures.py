@@ -28,6 +28,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from train.evaluation.ap_table import MEANINGFUL_TRUTH
+from train.study.seeds import mean_sd
 
 # The paper's Table 1, 3D AP (IoU 0.5) on its simulated data: (model, density) -> AP.
 PAPER_3D_AP = {("single", 2.0): 51.65, ("late", 2.0): 83.30, ("single", 1.0): 33.74, ("late", 1.0): 71.47,
@@ -76,8 +77,7 @@ def study_bins(study: Path, model: str) -> dict[tuple[float, float], list[dict]]
 
 
 def spread(values: list[float]) -> str:
-    sd = statistics.stdev(values) if len(values) > 1 else 0.0
-    return f"{statistics.mean(values):.2f} ± {sd:.2f}"
+    return "{:.2f} ± {:.2f}".format(*mean_sd(values))
 
 
 def density_figure(curves: list[tuple[str, float, Path]], studies: list[tuple[float, Path]], out: Path) -> None:
@@ -92,8 +92,7 @@ def density_figure(curves: list[tuple[str, float, Path]], studies: list[tuple[fl
                 axes.plot(*zip(*points), style, color=COLOURS[model], label=f"{model}, {who}")
         small = sorted((d, aps[model]["3d"]) for d, aps in compact.items() if model in aps)
         if small:
-            means = [statistics.mean(v) for _, v in small]
-            sds = [statistics.stdev(v) if len(v) > 1 else 0.0 for _, v in small]
+            means, sds = zip(*(mean_sd(v) for _, v in small))
             axes.errorbar([d for d, _ in small], means, yerr=sds, fmt=":^", color=COLOURS[model], capsize=3,
                           label=f"{model}, ours (compact, CPU, mean ± sd of {seeds} seeds)")
     axes.set_xscale("log", base=2)
@@ -188,7 +187,7 @@ def compact_table(studies: list[tuple[float, Path]], out: Path) -> None:
                   "in quadrature); the paper: late -11.83, single -17.91.", ""]
         for model in ("late", "single"):
             x1, x2 = compact[1.0][model]["3d"], compact[2.0][model]["3d"]
-            sd = (statistics.stdev(x1) ** 2 + statistics.stdev(x2) ** 2) ** 0.5 if min(len(x1), len(x2)) > 1 else 0.0
+            sd = (mean_sd(x1)[1] ** 2 + mean_sd(x2)[1] ** 2) ** 0.5 if min(len(x1), len(x2)) > 1 else 0.0
             lines.append(f"- {model}: {statistics.mean(x1) - statistics.mean(x2):+.2f} ± {sd:.2f}")
     (out / "compact.md").write_text("\n".join(lines) + "\n")
 

@@ -22,10 +22,15 @@ TABLE2_ORDER = (("3D DIoU", "AB3DMOT"), ("3D DIoU + birth/death + split", "3D DI
 TRACKING_IOU = 0.25
 
 
+def mean_sd(values: Sequence[float]) -> tuple[float, float]:
+    """Mean and sample standard deviation of per-seed values (sd 0 for one seed)."""
+    return statistics.mean(values), statistics.stdev(values) if len(values) > 1 else 0.0
+
+
 def _spread(values: Sequence[float]) -> str:
     """`mean ± sd (min-max)` of per-seed values."""
-    sd = statistics.stdev(values) if len(values) > 1 else 0.0
-    return f"{statistics.mean(values):.2f} ± {sd:.2f} ({min(values):.2f}-{max(values):.2f})"
+    mean, sd = mean_sd(values)
+    return f"{mean:.2f} ± {sd:.2f} ({min(values):.2f}-{max(values):.2f})"
 
 
 def _ordering(name_a: str, a: Sequence[float], name_b: str, b: Sequence[float]) -> str:
