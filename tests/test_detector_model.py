@@ -305,3 +305,26 @@ def test_channels_last_step_computes_what_the_default_layout_does(fusion):
     default = build_detector(config)
     assert accelerate(default, config.train, torch.device("cpu")) is default  # auto: CUDA only
     assert default.backbone_2d.blocks[1][0].weight.is_contiguous()
+
+
+def test_compiled_bf16_step_has_the_eager_gradients():
+    """train.compile under bf16 autocast (forced on here on CPU): the pillar encoder's max-pooling backward
+    (scatter_reduce amax) finds its maxima again, so its gradients are finite and the eager ones (the compiled
+    training step was NaN from its first step before train.accelerate asked Inductor to round as eager does)."""
+    from train.accelerate import accelerate
+
+    config = tiny_config("late")
+    model = build_detector(config)
+    batch = _batch(config, model)
+    encoder = model.pillar_encoder
+    step = accelerate(encoder, config.train.model_copy(update={"compile": "on"}), torch.device("cpu"))
+    args = (batch.features, batch.pillar, batch.point_pillar, batch.batch_size * model.canvases)
+    weights = torch.randn(len(batch.pillar), encoder.channels, generator=torch.Generator().manual_seed(0))
+    grads = []
+    for run in (encoder, step):
+        with torch.autocast("cpu", dtype=torch.bfloat16):
+            pooled = run(*args).features
+        grads.append(torch.autograd.grad((pooled.float() * weights).sum(), list(encoder.parameters())))
+    for got, want in zip(grads[1], grads[0]):
+        assert torch.isfinite(got).all()
+        torch.testing.assert_close(got, want, rtol=0.05, atol=0.05 * float(want.abs().max()))

@@ -42,4 +42,10 @@ def accelerate(model: nn.Module, train: TrainConfig, device: torch.device) -> nn
         for part in model.modules():
             if isinstance(part, (nn.Conv2d, nn.ConvTranspose2d)):  # 4D weights (the fusion's Conv3d is 5D)
                 part.to(memory_format=torch.channels_last)
-    return torch.compile(model) if wanted(train.compile, device) else model
+    # emulate_precision_casts: Inductor rounds each bfloat16 intermediate as eager does. Without it the pillar
+    # encoder's BatchNorm output, recomputed in the backward, stays float32 and no longer equals the bfloat16
+    # maxima the forward kept: scatter_reduce's amax backward finds no point at a maximum, divides by zero, and
+    # every gradient is NaN from the first step.
+    if wanted(train.compile, device):
+        return torch.compile(model, options={"emulate_precision_casts": True})
+    return model
