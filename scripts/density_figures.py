@@ -5,7 +5,8 @@ and 3D AP against distance from the sensor with the median points per player.
         --curve "late@1=studies/paper_x1_snapshot_track_sizes_gpu/late/learning_curve.csv" \\
         --bins "late x1=studies/density_sweep/late_x1/ap_by_distance.csv" ...
 
-`--curve MODEL@DENSITY=PATH`: a `learning_curve.csv` of `simgen-train fit`, its last row's 3d_r40 the point.
+`--curve MODEL@DENSITY=PATH`: a `learning_curve.csv` of `simgen-train fit`, its last row's 3d_r40 the point (several
+at one density, e.g. seeds: their mean and sd).
 `--bins LABEL=PATH`: an `ap_by_distance.csv` of `simgen-train score|eval --by-distance`. Writes OUT/ap_by_density.png
 and OUT/ap_by_distance.png.
 
@@ -81,15 +82,22 @@ def spread(values: list[float]) -> str:
 
 
 def density_figure(curves: list[tuple[str, float, Path]], studies: list[tuple[float, Path]], out: Path) -> None:
-    figure, axes = plt.subplots(figsize=(6.5, 4.5), dpi=110)
+    figure, axes = plt.subplots(figsize=(10, 4.5), dpi=110)
     compact = {density: study_ap(folder) for density, folder in studies}
     seeds = max((len(v["3d"]) for aps in compact.values() for v in aps.values()), default=0)
     for model in COLOURS:
-        ours = sorted((d, last_3d_ap(p)) for m, d, p in curves if m == model)
+        runs: dict[float, list[float]] = {}
+        for m, d, p in curves:
+            if m == model:
+                runs.setdefault(d, []).append(last_3d_ap(p))
+        if runs:
+            densities = sorted(runs)
+            means, sds = zip(*(mean_sd(runs[d]) for d in densities))
+            axes.errorbar(densities, means, yerr=sds, fmt="-o", color=COLOURS[model], capsize=3,
+                          label=f"{model}, ours (paper size, H100; mean ± sd where several seeds)")
         paper = sorted((d, ap) for (m, d), ap in PAPER_3D_AP.items() if m == model)
-        for points, style, who in ((ours, "-o", "ours (paper size, H100, one seed)"), (paper, "--s", "the paper")):
-            if points:
-                axes.plot(*zip(*points), style, color=COLOURS[model], label=f"{model}, {who}")
+        if paper:
+            axes.plot(*zip(*paper), "--s", color=COLOURS[model], label=f"{model}, the paper")
         small = sorted((d, aps[model]["3d"]) for d, aps in compact.items() if model in aps)
         if small:
             means, sds = zip(*(mean_sd(v) for _, v in small))
@@ -102,7 +110,7 @@ def density_figure(curves: list[tuple[str, float, Path]], studies: list[tuple[fl
     axes.set_ylabel("val 3D AP R40 (%), IoU 0.5")
     axes.set_title("3D AP against density: paper-like data vs the paper's Table 1")
     axes.grid(alpha=0.3)
-    axes.legend(fontsize=8)
+    axes.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1))
     figure.tight_layout()
     figure.savefig(out / "ap_by_density.png")
     plt.close(figure)
