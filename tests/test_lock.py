@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 import sys
+import sysconfig
 import tomllib
 from importlib.metadata import distributions
 from pathlib import Path
@@ -35,7 +36,10 @@ def test_the_venv_holds_exactly_the_locked_packages():
     assert Path(sys.prefix) == ROOT / ".venv", (
         f"run the tests with the set-up's venv ({ROOT / '.venv'}), not {sys.prefix}"
     )
-    installed = {canonicalize_name(d.metadata["Name"]): Version(d.version) for d in distributions()}
+    # the venv's own folders, not sys.path: once imported (torch.compile on the CPU does) setuptools puts its
+    # vendored packages' folder on sys.path, and their metadata would read as installed
+    site = sorted({sysconfig.get_paths()[kind] for kind in ("purelib", "platlib")})
+    installed = {canonicalize_name(d.metadata["Name"]): Version(d.version) for d in distributions(path=site)}
     locked = {name: version for name, (version, _) in _locked().items()}
     assert BUILT_HERE <= set(installed)
     assert {n: v for n, v in installed.items() if n not in BUILT_HERE} == locked
