@@ -308,9 +308,9 @@ def test_channels_last_step_computes_what_the_default_layout_does(fusion):
 
 
 def test_compiled_bf16_step_has_the_eager_gradients():
-    """train.compile under bf16 autocast (forced on here on CPU): the pillar encoder's max-pooling backward
-    (scatter_reduce amax) finds its maxima again, so its gradients are finite and the eager ones (the compiled
-    training step was NaN from its first step before train.accelerate asked Inductor to round as eager does)."""
+    """train.compile under bf16 autocast (forced on here, on the CPU): the pillar encoder's max-pooling backward
+    (scatter_reduce amax) finds its maxima again, so its gradients are finite and match the eager ones (the
+    compiled step was NaN from its first step before train.accelerate asked Inductor to round as eager does)."""
     from train.accelerate import accelerate
 
     config = tiny_config("late")
