@@ -81,9 +81,11 @@ def spread(values: list[float]) -> str:
     return "{:.2f} ± {:.2f}".format(*mean_sd(values))
 
 
-def density_figure(curves: list[tuple[str, float, Path]], studies: list[tuple[float, Path]], out: Path) -> None:
+def density_figure(curves: list[tuple[str, float, Path]], compact: dict[float, dict[str, dict[str, list[float]]]],
+                   out: Path) -> None:
+    """OUT/ap_by_density.png: the paper-size runs (`curves`), the compact studies' AP (`compact`: density -> study_ap)
+    and the paper's Table 1."""
     figure, axes = plt.subplots(figsize=(10, 4.5), dpi=110)
-    compact = {density: study_ap(folder) for density, folder in studies}
     seeds = max((len(v["3d"]) for aps in compact.values() for v in aps.values()), default=0)
     for model in COLOURS:
         runs: dict[float, list[float]] = {}
@@ -179,9 +181,8 @@ def compact_distance(studies: list[tuple[float, Path]], out: Path) -> None:
         writer.writerows(rows)
 
 
-def compact_table(studies: list[tuple[float, Path]], out: Path) -> None:
+def compact_table(compact: dict[float, dict[str, dict[str, list[float]]]], out: Path) -> None:
     """OUT/compact.md: each density's single and late 3D and BEV AP over seeds, the fusion gain, the x2 -> x1 loss."""
-    compact = {density: study_ap(folder) for density, folder in sorted(studies)}
     lines = ["| density | single 3D | late 3D | late - single, 3D | single BEV | late BEV | 3D per seed, single / "
              "late |", "| --- | ---: | ---: | ---: | ---: | ---: | --- |"]
     for density, aps in compact.items():
@@ -195,8 +196,9 @@ def compact_table(studies: list[tuple[float, Path]], out: Path) -> None:
                   "in quadrature); the paper: late -11.83, single -17.91.", ""]
         for model in ("late", "single"):
             x1, x2 = compact[1.0][model]["3d"], compact[2.0][model]["3d"]
-            sd = (mean_sd(x1)[1] ** 2 + mean_sd(x2)[1] ** 2) ** 0.5 if min(len(x1), len(x2)) > 1 else 0.0
-            lines.append(f"- {model}: {statistics.mean(x1) - statistics.mean(x2):+.2f} ± {sd:.2f}")
+            (mean1, sd1), (mean2, sd2) = mean_sd(x1), mean_sd(x2)
+            sd = (sd1 ** 2 + sd2 ** 2) ** 0.5 if min(len(x1), len(x2)) > 1 else 0.0
+            lines.append(f"- {model}: {mean1 - mean2:+.2f} ± {sd:.2f}")
     (out / "compact.md").write_text("\n".join(lines) + "\n")
 
 
@@ -215,12 +217,13 @@ def main() -> None:
             parser.error(f"{text!r}: expected MODEL@DENSITY=PATH, MODEL one of {', '.join(COLOURS)}")
         curves.append((model, float(density), path))
     studies = [(float(density), folder) for density, folder in (split_arg(text, parser) for text in args.study)]
+    compact = {density: study_ap(folder) for density, folder in sorted(studies)}
     args.output.mkdir(parents=True, exist_ok=True)
-    density_figure(curves, studies, args.output)
+    density_figure(curves, compact, args.output)
     distance_figure([split_arg(text, parser) for text in args.bins], args.output)
     if studies:
         compact_distance(studies, args.output)
-        compact_table(studies, args.output)
+        compact_table(compact, args.output)
     print(f"wrote {args.output / 'ap_by_density.png'} and {args.output / 'ap_by_distance.png'}"
           + (", compact_ap_by_distance.png, compact.md, compact_by_distance.csv" if studies else ""))
 
