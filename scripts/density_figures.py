@@ -13,14 +13,18 @@ and OUT/ap_by_distance.png.
 `--study DENSITY=FOLDER`: a `simgen-train study --seeds` of single and late (FOLDER/seed_<n>/table1.csv), each model's
 `eval --by-distance` in FOLDER/seed_<n>/<model>/ap/: the compact points (mean and spread over the seeds) on the
 density figure, and OUT/compact_ap_by_distance.png (single, late and late - single by distance, one line per
-density, the mean over seeds), OUT/compact.md and OUT/compact_by_distance.csv (its tables).
+density, the mean over seeds), OUT/compact.md and OUT/compact_by_distance.csv (its tables). Studies are grouped by
+their training iterations (table1.csv): one series, table and figure column per budget; a study without
+`ap_by_distance.csv` counts in the AP tables but not by distance.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import itertools
 import statistics
+from dataclasses import dataclass
 from pathlib import Path
 
 import matplotlib
@@ -55,22 +59,44 @@ def seed_folders(study: Path) -> list[Path]:
     return sorted(study.glob("seed_*"), key=lambda folder: int(folder.name.removeprefix("seed_")))
 
 
-def study_ap(study: Path) -> dict[str, dict[str, list[float]]]:
-    """model -> {"3d", "bev"} -> each seed's AP R40 (IoU 0.5, all val boxes at t) of a seeds study."""
-    result: dict[str, dict[str, list[float]]] = {}
-    for folder in seed_folders(study):
-        with open(folder / "table1.csv") as file:
+@dataclass(frozen=True)
+class SeedsStudy:
+    """A `simgen-train study --seeds` of the compact models at one density and one training budget."""
+
+    density: float
+    iterations: int  # training batches of every model and seed
+    folder: Path
+    ap: dict[str, dict[str, list[float]]]  # model -> {"3d", "bev"} -> each seed's AP R40 (IoU 0.5, all boxes at t)
+
+
+def read_study(density: float, folder: Path) -> SeedsStudy:
+    """The study's AP and budget from each seed's table1.csv (one budget over its models and seeds, or an error)."""
+    ap: dict[str, dict[str, list[float]]] = {}
+    budgets = set()
+    for seed in seed_folders(folder):
+        with open(seed / "table1.csv") as file:
             for row in csv.DictReader(file):
+                budgets.add(int(row["iterations"]))
                 if (row["truth_set"], row["box"], row["recall_points"]) == ("all", "t", "40"):
-                    result.setdefault(row["model"], {}).setdefault(row["iou"], []).append(float(row["ap"]))
-    return result
+                    ap.setdefault(row["model"], {}).setdefault(row["iou"], []).append(float(row["ap"]))
+    if len(budgets) != 1:
+        raise SystemExit(f"{folder}: expected one training budget over its models and seeds, found {sorted(budgets)}")
+    return SeedsStudy(density, budgets.pop(), folder, ap)
+
+
+def budgets(studies: list[SeedsStudy]) -> list[int]:
+    """The studies' training budgets (iterations), fewest first."""
+    return sorted({study.iterations for study in studies})
 
 
 def study_bins(study: Path, model: str) -> dict[tuple[float, float], list[dict]]:
-    """(low_m, high_m) -> each seed's 3D R40 row of the model's ap_by_distance.csv."""
+    """(low_m, high_m) -> each seed's 3D R40 row of the model's ap_by_distance.csv ({} where a seed has none)."""
     bins: dict[tuple[float, float], list[dict]] = {}
-    for folder in seed_folders(study):
-        with open(folder / model / "ap" / "ap_by_distance.csv") as file:
+    paths = [folder / model / "ap" / "ap_by_distance.csv" for folder in seed_folders(study)]
+    if not all(path.is_file() for path in paths):
+        return {}
+    for path in paths:
+        with open(path) as file:
             for row in csv.DictReader(file):
                 if row["iou"] == "3d" and row["recall_points"] == "40":
                     bins.setdefault((float(row["low_m"]), float(row["high_m"])), []).append(row)
@@ -78,15 +104,14 @@ def study_bins(study: Path, model: str) -> dict[tuple[float, float], list[dict]]
 
 
 def spread(values: list[float]) -> str:
-    return "{:.2f} ± {:.2f}".format(*mean_sd(values))
+    """`mean ± sd` over seeds; the value alone for one seed."""
+    return "{:.2f} ± {:.2f}".format(*mean_sd(values)) if len(values) > 1 else f"{values[0]:.2f}"
 
 
-def density_figure(curves: list[tuple[str, float, Path]], compact: dict[float, dict[str, dict[str, list[float]]]],
-                   out: Path) -> None:
-    """OUT/ap_by_density.png: the paper-size runs (`curves`), the compact studies' AP (`compact`: density -> study_ap)
-    and the paper's Table 1."""
+def density_figure(curves: list[tuple[str, float, Path]], studies: list[SeedsStudy], out: Path) -> None:
+    """OUT/ap_by_density.png: the paper-size runs (`curves`), the compact studies' AP (one series per model and
+    budget) and the paper's Table 1."""
     figure, axes = plt.subplots(figsize=(10, 4.5), dpi=110)
-    seeds = max((len(v["3d"]) for aps in compact.values() for v in aps.values()), default=0)
     for model in COLOURS:
         runs: dict[float, list[float]] = {}
         for m, d, p in curves:
@@ -100,11 +125,14 @@ def density_figure(curves: list[tuple[str, float, Path]], compact: dict[float, d
         paper = sorted((d, ap) for (m, d), ap in PAPER_3D_AP.items() if m == model)
         if paper:
             axes.plot(*zip(*paper), "--s", color=COLOURS[model], label=f"{model}, the paper")
-        small = sorted((d, aps[model]["3d"]) for d, aps in compact.items() if model in aps)
-        if small:
-            means, sds = zip(*(mean_sd(v) for _, v in small))
-            axes.errorbar([d for d, _ in small], means, yerr=sds, fmt=":^", color=COLOURS[model], capsize=3,
-                          label=f"{model}, ours (compact, CPU, mean ± sd of {seeds} seeds)")
+        for budget, style in zip(budgets(studies), itertools.cycle((":^", "-.v", ":D"))):
+            small = [(st.density, st.ap[model]["3d"]) for st in studies if st.iterations == budget and model in st.ap]
+            if small:
+                means, sds = zip(*(mean_sd(v) for _, v in small))
+                counts = sorted({len(v) for _, v in small})
+                seeds = f"{counts[0]}" if len(counts) == 1 else f"{counts[0]} to {counts[-1]}"
+                axes.errorbar([d for d, _ in small], means, yerr=sds, fmt=style, color=COLOURS[model], capsize=3,
+                              label=f"{model}, ours (compact, CPU, {budget:,} it, mean ± sd of {seeds} seeds)")
     axes.set_xscale("log", base=2)
     axes.set_xticks([0.25, 0.5, 1, 2], ["x0.25", "x0.5", "x1", "x2"])
     axes.set_xlim(0.2, 2.5)
@@ -141,37 +169,46 @@ def distance_figure(bins: list[tuple[str, Path]], out: Path) -> None:
     plt.close(figure)
 
 
-def compact_distance(studies: list[tuple[float, Path]], out: Path) -> None:
-    """The compact models by distance: single, late and late - single, one line per density (mean over seeds); its
-    table in OUT/compact_by_distance.csv."""
-    figure, panels = plt.subplots(3, 1, figsize=(7, 8), dpi=110, sharex=True)
+def compact_distance(studies: list[SeedsStudy], out: Path) -> None:
+    """The compact models by distance: single, late and late - single, one line per density (mean over seeds), one
+    column per training budget; its table in OUT/compact_by_distance.csv."""
+    columns = budgets(studies)
+    densities = sorted({study.density for study in studies})  # one colour per density in every column
+    figure, panels = plt.subplots(3, len(columns), figsize=(7 * len(columns), 8), dpi=110, sharex=True,
+                                  sharey="row", squeeze=False)
     rows = []
-    for density, folder in sorted(studies):
-        by_model = {model: study_bins(folder, model) for model in ("single", "late")}
-        edges = sorted(by_model["late"])
-        mean = {m: [statistics.mean(float(r["ap"]) for r in by_model[m][e]) for e in edges] for m in by_model}
-        centre = [(low + high) / 2 for low, high in edges]
-        label = f"x{density:g}"
-        coarse = [int(by_model["late"][e][0]["truth"]) < MEANINGFUL_TRUTH for e in edges]
-        for panel, values in zip(panels, (mean["single"], mean["late"],
-                                          [a - b for a, b in zip(mean["late"], mean["single"])])):
-            line, = panel.plot(centre, values, "-o", label=label, markersize=4)
-            hollow = [(c, v) for c, v, few in zip(centre, values, coarse) if few]
-            if hollow:  # too few boxes for a fine AP
-                panel.plot(*zip(*hollow), "o", color=line.get_color(), markerfacecolor="white", markersize=4)
-        for (low, high), single, late in zip(edges, mean["single"], mean["late"]):
-            first = by_model["late"][(low, high)][0]
-            rows.append({"density": f"{density:g}", "low_m": f"{low:g}", "high_m": f"{high:g}", "truth": first["truth"],
-                         "median_points": first["median_points"], "single_3d": f"{single:.2f}",
-                         "late_3d": f"{late:.2f}", "late_minus_single": f"{late - single:.2f}"})
-    for panel, title in zip(panels, ("single frame", "late fusion", "late - single (the fusion gain)")):
-        panel.set_ylabel(f"{title}\n3D AP R40 (%)", fontsize=9)
-        panel.grid(alpha=0.3)
-        panel.legend(fontsize=8, ncols=4)
-    panels[2].axhline(0, color="black", linewidth=0.8)
-    panels[0].set_title(f"compact models by distance from the sensor, mean over seeds (hollow: < {MEANINGFUL_TRUTH} "
-                        "boxes)", fontsize=10)
-    panels[2].set_xlabel("pitch-plane distance from the sensor (m), bin centre")
+    for column, budget in enumerate(columns):
+        for study in (st for st in studies if st.iterations == budget):
+            by_model = {model: study_bins(study.folder, model) for model in ("single", "late")}
+            if not all(by_model.values()):
+                print(f"{study.folder}: no ap_by_distance.csv for every model and seed; left out by distance")
+                continue
+            edges = sorted(by_model["late"])
+            mean = {m: [statistics.mean(float(r["ap"]) for r in by_model[m][e]) for e in edges] for m in by_model}
+            centre = [(low + high) / 2 for low, high in edges]
+            coarse = [int(by_model["late"][e][0]["truth"]) < MEANINGFUL_TRUTH for e in edges]
+            for panel, values in zip(panels[:, column], (mean["single"], mean["late"],
+                                                         [a - b for a, b in zip(mean["late"], mean["single"])])):
+                line, = panel.plot(centre, values, "-o", label=f"x{study.density:g}", markersize=4,
+                                   color=f"C{densities.index(study.density)}")
+                hollow = [(c, v) for c, v, few in zip(centre, values, coarse) if few]
+                if hollow:  # too few boxes for a fine AP
+                    panel.plot(*zip(*hollow), "o", color=line.get_color(), markerfacecolor="white", markersize=4)
+            for (low, high), single, late in zip(edges, mean["single"], mean["late"]):
+                first = by_model["late"][(low, high)][0]
+                rows.append({"iterations": budget, "density": f"{study.density:g}", "low_m": f"{low:g}",
+                             "high_m": f"{high:g}", "truth": first["truth"], "median_points": first["median_points"],
+                             "seeds": len(by_model["late"][(low, high)]), "single_3d": f"{single:.2f}",
+                             "late_3d": f"{late:.2f}", "late_minus_single": f"{late - single:.2f}"})
+        panels[0, column].set_title(f"compact, {budget:,} iterations: mean over seeds (hollow: < {MEANINGFUL_TRUTH} "
+                                    "boxes)", fontsize=10)
+        panels[2, column].axhline(0, color="black", linewidth=0.8)
+        panels[2, column].set_xlabel("pitch-plane distance from the sensor (m), bin centre")
+    for row, title in enumerate(("single frame", "late fusion", "late - single (the fusion gain)")):
+        panels[row, 0].set_ylabel(f"{title}\n3D AP R40 (%)", fontsize=9)
+        for panel in panels[row]:
+            panel.grid(alpha=0.3)
+            panel.legend(fontsize=8, ncols=4)
     figure.tight_layout()
     figure.savefig(out / "compact_ap_by_distance.png")
     plt.close(figure)
@@ -181,25 +218,33 @@ def compact_distance(studies: list[tuple[float, Path]], out: Path) -> None:
         writer.writerows(rows)
 
 
-def compact_table(compact: dict[float, dict[str, dict[str, list[float]]]], out: Path) -> None:
-    """OUT/compact.md: each density's single and late 3D and BEV AP over seeds, the fusion gain, the x2 -> x1 loss."""
-    lines = ["| density | single 3D | late 3D | late - single, 3D | single BEV | late BEV | 3D per seed, single / "
-             "late |", "| --- | ---: | ---: | ---: | ---: | ---: | --- |"]
-    for density, aps in compact.items():
-        single, late = aps["single"], aps["late"]
-        gain = [b - a for a, b in zip(single["3d"], late["3d"])]
-        lines.append(f"| x{density:g} | {spread(single['3d'])} | {spread(late['3d'])} | {spread(gain)} | "
-                     f"{spread(single['bev'])} | {spread(late['bev'])} | "
-                     f"{' '.join(f'{v:.2f}' for v in single['3d'])} / {' '.join(f'{v:.2f}' for v in late['3d'])} |")
-    if 1.0 in compact and 2.0 in compact:
-        lines += ["", "The paper's Δ of 3D (x2 -> x1), ours: the mean at x1 minus the mean at x2 (± the two sds added "
-                  "in quadrature); the paper: late -11.83, single -17.91.", ""]
-        for model in ("late", "single"):
-            x1, x2 = compact[1.0][model]["3d"], compact[2.0][model]["3d"]
-            (mean1, sd1), (mean2, sd2) = mean_sd(x1), mean_sd(x2)
-            sd = (sd1 ** 2 + sd2 ** 2) ** 0.5 if min(len(x1), len(x2)) > 1 else 0.0
-            lines.append(f"- {model}: {mean1 - mean2:+.2f} ± {sd:.2f}")
-    (out / "compact.md").write_text("\n".join(lines) + "\n")
+def compact_table(studies: list[SeedsStudy], out: Path) -> None:
+    """OUT/compact.md: per budget, each density's single and late 3D and BEV AP over seeds, the fusion gain, the
+    x2 -> x1 loss."""
+    lines = []
+    for budget in budgets(studies):
+        at = {st.density: st.ap for st in studies if st.iterations == budget}
+        lines += [f"{budget:,} iterations:", "", "| density | seeds | single 3D | late 3D | late - single, 3D | "
+                  "single BEV | late BEV | 3D per seed, single / late |",
+                  "| --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |"]
+        for density in sorted(at):
+            single, late = at[density]["single"], at[density]["late"]
+            gain = [b - a for a, b in zip(single["3d"], late["3d"])]
+            lines.append(f"| x{density:g} | {len(gain)} | {spread(single['3d'])} | {spread(late['3d'])} | "
+                         f"{spread(gain)} | {spread(single['bev'])} | {spread(late['bev'])} | "
+                         f"{' '.join(f'{v:.2f}' for v in single['3d'])} / "
+                         f"{' '.join(f'{v:.2f}' for v in late['3d'])} |")
+        if 1.0 in at and 2.0 in at:
+            lines += ["", "The paper's Δ of 3D (x2 -> x1), ours: the mean at x1 minus the mean at x2 (± the two sds "
+                      "added in quadrature); the paper: late -11.83, single -17.91.", ""]
+            for model in ("late", "single"):
+                x1, x2 = at[1.0][model]["3d"], at[2.0][model]["3d"]
+                (mean1, sd1), (mean2, sd2) = mean_sd(x1), mean_sd(x2)
+                sd = (f" ± {(sd1 ** 2 + sd2 ** 2) ** 0.5:.2f}" if min(len(x1), len(x2)) > 1
+                      else " (one seed at x1 or x2: no spread)")
+                lines.append(f"- {model}: {mean1 - mean2:+.2f}{sd}")
+        lines.append("")
+    (out / "compact.md").write_text("\n".join(lines))
 
 
 def main() -> None:
@@ -216,14 +261,14 @@ def main() -> None:
         if model not in COLOURS or not density:
             parser.error(f"{text!r}: expected MODEL@DENSITY=PATH, MODEL one of {', '.join(COLOURS)}")
         curves.append((model, float(density), path))
-    studies = [(float(density), folder) for density, folder in (split_arg(text, parser) for text in args.study)]
-    compact = {density: study_ap(folder) for density, folder in sorted(studies)}
+    studies = sorted((read_study(float(density), folder) for density, folder in
+                      (split_arg(text, parser) for text in args.study)), key=lambda st: (st.iterations, st.density))
     args.output.mkdir(parents=True, exist_ok=True)
-    density_figure(curves, compact, args.output)
+    density_figure(curves, studies, args.output)
     distance_figure([split_arg(text, parser) for text in args.bins], args.output)
     if studies:
         compact_distance(studies, args.output)
-        compact_table(compact, args.output)
+        compact_table(studies, args.output)
     print(f"wrote {args.output / 'ap_by_density.png'} and {args.output / 'ap_by_distance.png'}"
           + (", compact_ap_by_distance.png, compact.md, compact_by_distance.csv" if studies else ""))
 

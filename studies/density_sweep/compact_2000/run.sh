@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# The compact density sweep at the configs' full 2,000 iterations x batch 2 (docs/density_sweep.md, issue 40 item 3):
+# single frame and late fusion per density and training seed on the paper-like data, then AP by distance of every
+# checkpoint. x1 at this budget is studies/paper_x1_snapshot_track_sizes_seeds/ (its checkpoints were not kept: no AP
+# by distance). As run on this project's 2-core machine: seed 0 of each density on 2026-11-26 as a plain study (no
+# --seed: the configs' 0) into OUT/x<d>/seed_0/; on 2026-11-27 seeds 1 and 2 of x0.25 as plain `--seed N` studies
+# moved into OUT/x0_25/seed_<n>/, then the commands below, OMP_NUM_THREADS=1 and two studies side by side.
+# `study --seeds` reuses the checkpoints it finds in OUT/x<d>/seed_<n>/ (the seed tables it writes for those say
+# "checkpoint reused"; the committed seed_0 tables are the first run's, with its fit times) and writes the tables over
+# the seeds. x2 has seeds 0 and 1 only (session time).
+# Usage: studies/density_sweep/compact_2000/run.sh DATASETS OUT   (from the repository root; datasets made if missing)
+set -euo pipefail
+datasets=$1 out=$2
+declare -A seeds=([0_25]=0,1,2 [0_5]=0,1,2 [2]=0,1)
+for d in 0_25 0_5 2; do
+  OMP_NUM_THREADS=1 simgen-train study scenarios/paper_x${d}_snapshot_track_sizes.yaml -o "$out/x$d" \
+    --models single,late --datasets "$datasets" --workers 1 --device cpu --seeds "${seeds[$d]}" --quiet
+  for s in ${seeds[$d]//,/ }; do for m in single late; do
+    OMP_NUM_THREADS=1 simgen-train eval "$out/x$d/seed_$s/$m/checkpoint.pt" \
+      --dataset "$datasets/paper_x${d}_snapshot_track_sizes" --split val --by-distance -o "$out/x$d/seed_$s/$m/ap" \
+      --device cpu --quiet
+  done; done
+done
