@@ -14,8 +14,9 @@ and OUT/ap_by_distance.png.
 `eval --by-distance` in FOLDER/seed_<n>/<model>/ap/: the compact points (mean and spread over the seeds) on the
 density figure, and OUT/compact_ap_by_distance.png (single, late and late - single by distance, one line per
 density, the mean over seeds), OUT/compact.md and OUT/compact_by_distance.csv (its tables). Studies are grouped by
-their training iterations (table1.csv): one series, table and figure column per budget; a study without
-`ap_by_distance.csv` counts in the AP tables but not by distance.
+their training iterations (table1.csv): one series, table and figure column per budget. By distance, the mean is over
+the seeds with an `ap_by_distance.csv` of both single and late (compact_by_distance.csv's `seeds`); a study with none
+counts in the AP tables only.
 """
 
 from __future__ import annotations
@@ -90,13 +91,13 @@ def budgets(studies: list[SeedsStudy]) -> list[int]:
 
 
 def study_bins(study: Path, model: str) -> dict[tuple[float, float], list[dict]]:
-    """(low_m, high_m) -> each seed's 3D R40 row of the model's ap_by_distance.csv ({} where a seed has none)."""
+    """(low_m, high_m) -> the 3D R40 row of the model's ap_by_distance.csv of each seed that has one for both single
+    and late ({} where no seed has)."""
     bins: dict[tuple[float, float], list[dict]] = {}
-    paths = [folder / model / "ap" / "ap_by_distance.csv" for folder in seed_folders(study)]
-    if not all(path.is_file() for path in paths):
-        return {}
-    for path in paths:
-        with open(path) as file:
+    for folder in seed_folders(study):
+        if not all((folder / m / "ap" / "ap_by_distance.csv").is_file() for m in ("single", "late")):
+            continue
+        with open(folder / model / "ap" / "ap_by_distance.csv") as file:
             for row in csv.DictReader(file):
                 if row["iou"] == "3d" and row["recall_points"] == "40":
                     bins.setdefault((float(row["low_m"]), float(row["high_m"])), []).append(row)
@@ -181,7 +182,7 @@ def compact_distance(studies: list[SeedsStudy], out: Path) -> None:
         for study in (st for st in studies if st.iterations == budget):
             by_model = {model: study_bins(study.folder, model) for model in ("single", "late")}
             if not all(by_model.values()):
-                print(f"{study.folder}: no ap_by_distance.csv for every model and seed; left out by distance")
+                print(f"{study.folder}: no seed with an ap_by_distance.csv of single and late; left out by distance")
                 continue
             edges = sorted(by_model["late"])
             mean = {m: [statistics.mean(float(r["ap"]) for r in by_model[m][e]) for e in edges] for m in by_model}

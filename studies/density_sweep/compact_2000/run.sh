@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The compact density sweep at the configs' full 2,000 iterations x batch 2 (docs/density_sweep.md, issue 40 item 3):
 # single frame and late fusion per density and training seed on the paper-like data, then AP by distance of every
-# checkpoint. x1 at this budget is studies/paper_x1_snapshot_track_sizes_seeds/ (its checkpoints were not kept: no AP
-# by distance). As run on this project's 2-core machine: seed 0 of each density on 2026-11-26 as a plain study (no
+# checkpoint. x1 at this budget is studies/paper_x1_snapshot_track_sizes_seeds/ (its checkpoints were not kept; seed 0
+# fitted again on 2026-11-27 with the same AP, for its AP by distance: the x1 lines at the end). As run on this project's 2-core machine: seed 0 of each density on 2026-11-26 as a plain study (no
 # --seed: the configs' 0) into OUT/x<d>/seed_0/; on 2026-11-27 seeds 1 and 2 of x0.25 as plain `--seed N` studies
 # moved into OUT/x0_25/seed_<n>/, then the commands below, OMP_NUM_THREADS=1 and two studies side by side.
 # `study --seeds` reuses the checkpoints it finds in OUT/x<d>/seed_<n>/ (the seed tables it writes for those say
@@ -20,4 +20,18 @@ for d in 0_25 0_5 2; do
       --dataset "$datasets/paper_x${d}_snapshot_track_sizes" --split val --by-distance -o "$out/x$d/seed_$s/$m/ap" \
       --device cpu --quiet
   done; done
+done
+# Early fusion, seed 0 at x0.25 and x0.5 (OUT/early/, committed as early/), beside a copy of seed 0's single and late
+# (reused, not trained again):
+for d in 0_25 0_5; do
+  mkdir -p "$out/early/x$d" && cp -r "$out/x$d/seed_0" "$out/early/x$d/"
+  OMP_NUM_THREADS=1 simgen-train study scenarios/paper_x${d}_snapshot_track_sizes.yaml -o "$out/early/x$d" \
+    --models single,early,late --datasets "$datasets" --workers 1 --device cpu --seeds 0 --quiet
+done
+# x1 seed 0 again, for AP by distance (its ap/ folders committed into studies/paper_x1_snapshot_track_sizes_seeds/seed_0/):
+OMP_NUM_THREADS=1 simgen-train study scenarios/paper_x1_snapshot_track_sizes.yaml -o "$out/x1_seed0" \
+  --models single,late --datasets "$datasets" --workers 1 --device cpu --quiet
+for m in single late; do
+  OMP_NUM_THREADS=1 simgen-train eval "$out/x1_seed0/$m/checkpoint.pt" --dataset "$datasets/paper_x1_snapshot_track_sizes" \
+    --split val --by-distance -o "$out/x1_seed0/$m/ap" --device cpu --quiet
 done
