@@ -21,13 +21,13 @@ for d in 0_25 0_5 2; do
       --device cpu --quiet
   done; done
 done
-# Early fusion, seed 0 at x0.25 and x0.5 (OUT/early/, committed as early/), beside a copy of seed 0's single and late
-# (reused, not trained again):
-for d in 0_25 0_5; do
-  mkdir -p "$out/early/x$d" && cp -r "$out/x$d/seed_0" "$out/early/x$d/"
-  OMP_NUM_THREADS=1 simgen-train study scenarios/paper_x${d}_snapshot_track_sizes.yaml -o "$out/early/x$d" \
-    --models single,early,late --datasets "$datasets" --workers 1 --device cpu --seeds 0 --quiet
-done
+# Early fusion, seeds 0 and 1 at x0.25 and x0.5 (committed as early/x<d>/seed_<n>/), each beside a copy of that seed's
+# single and late (reused, not trained again):
+for d in 0_25 0_5; do for s in 0 1; do
+  mkdir -p "$out/early$s/x$d" && cp -r "$out/x$d/seed_$s" "$out/early$s/x$d/"
+  OMP_NUM_THREADS=1 simgen-train study scenarios/paper_x${d}_snapshot_track_sizes.yaml -o "$out/early$s/x$d" \
+    --models single,early,late --datasets "$datasets" --workers 1 --device cpu --seeds $s --quiet
+done; done
 # x1 seed 0 again, for AP by distance (its ap/ folders committed into studies/paper_x1_snapshot_track_sizes_seeds/seed_0/):
 OMP_NUM_THREADS=1 simgen-train study scenarios/paper_x1_snapshot_track_sizes.yaml -o "$out/x1_seed0" \
   --models single,late --datasets "$datasets" --workers 1 --device cpu --quiet
