@@ -85,22 +85,28 @@ def read_study(density: float, folder: Path) -> SeedsStudy:
     return SeedsStudy(density, budgets.pop(), folder, ap)
 
 
-def budgets(studies: list[SeedsStudy]) -> list[int]:
-    """The studies' training budgets (iterations), fewest first."""
-    return sorted({study.iterations for study in studies})
+def by_budget(studies: list[SeedsStudy]) -> dict[int, list[SeedsStudy]]:
+    """The studies by training budget (iterations), fewest first, each budget's in the order given."""
+    groups: dict[int, list[SeedsStudy]] = {}
+    for study in sorted(studies, key=lambda st: st.iterations):
+        groups.setdefault(study.iterations, []).append(study)
+    return groups
 
 
-def study_bins(study: Path, model: str) -> dict[tuple[float, float], list[dict]]:
-    """(low_m, high_m) -> the 3D R40 row of the model's ap_by_distance.csv of each seed that has one for both single
-    and late ({} where no seed has)."""
-    bins: dict[tuple[float, float], list[dict]] = {}
+def study_bins(study: Path) -> dict[str, dict[tuple[float, float], list[dict]]]:
+    """single and late -> (low_m, high_m) -> the 3D R40 row of its ap_by_distance.csv of each seed that has one for
+    both models ({} where no seed has)."""
+    bins: dict[str, dict[tuple[float, float], list[dict]]] = {}
     for folder in seed_folders(study):
-        if not all((folder / m / "ap" / "ap_by_distance.csv").is_file() for m in ("single", "late")):
+        paths = {model: folder / model / "ap" / "ap_by_distance.csv" for model in ("single", "late")}
+        if not all(path.is_file() for path in paths.values()):
             continue
-        with open(folder / model / "ap" / "ap_by_distance.csv") as file:
-            for row in csv.DictReader(file):
-                if row["iou"] == "3d" and row["recall_points"] == "40":
-                    bins.setdefault((float(row["low_m"]), float(row["high_m"])), []).append(row)
+        for model, path in paths.items():
+            with open(path) as file:
+                for row in csv.DictReader(file):
+                    if row["iou"] == "3d" and row["recall_points"] == "40":
+                        edge = (float(row["low_m"]), float(row["high_m"]))
+                        bins.setdefault(model, {}).setdefault(edge, []).append(row)
     return bins
 
 
@@ -126,8 +132,8 @@ def density_figure(curves: list[tuple[str, float, Path]], studies: list[SeedsStu
         paper = sorted((d, ap) for (m, d), ap in PAPER_3D_AP.items() if m == model)
         if paper:
             axes.plot(*zip(*paper), "--s", color=COLOURS[model], label=f"{model}, the paper")
-        for budget, style in zip(budgets(studies), itertools.cycle((":^", "-.v", ":D"))):
-            small = [(st.density, st.ap[model]["3d"]) for st in studies if st.iterations == budget and model in st.ap]
+        for (budget, group), style in zip(by_budget(studies).items(), itertools.cycle((":^", "-.v", ":D"))):
+            small = [(st.density, st.ap[model]["3d"]) for st in group if model in st.ap]
             if small:
                 means, sds = zip(*(mean_sd(v) for _, v in small))
                 counts = sorted({len(v) for _, v in small})
@@ -173,15 +179,15 @@ def distance_figure(bins: list[tuple[str, Path]], out: Path) -> None:
 def compact_distance(studies: list[SeedsStudy], out: Path) -> None:
     """The compact models by distance: single, late and late - single, one line per density (mean over seeds), one
     column per training budget; its table in OUT/compact_by_distance.csv."""
-    columns = budgets(studies)
+    columns = by_budget(studies)
     densities = sorted({study.density for study in studies})  # one colour per density in every column
     figure, panels = plt.subplots(3, len(columns), figsize=(7 * len(columns), 8), dpi=110, sharex=True,
                                   sharey="row", squeeze=False)
     rows = []
-    for column, budget in enumerate(columns):
-        for study in (st for st in studies if st.iterations == budget):
-            by_model = {model: study_bins(study.folder, model) for model in ("single", "late")}
-            if not all(by_model.values()):
+    for column, (budget, group) in enumerate(columns.items()):
+        for study in group:
+            by_model = study_bins(study.folder)
+            if not by_model:
                 print(f"{study.folder}: no seed with an ap_by_distance.csv of single and late; left out by distance")
                 continue
             edges = sorted(by_model["late"])
@@ -223,13 +229,13 @@ def compact_table(studies: list[SeedsStudy], out: Path) -> None:
     """OUT/compact.md: per budget, each density's single and late 3D and BEV AP over seeds, the fusion gain, the
     x2 -> x1 loss."""
     lines = []
-    for budget in budgets(studies):
-        at = {st.density: st.ap for st in studies if st.iterations == budget}
+    for budget, group in by_budget(studies).items():
+        at = {st.density: st.ap for st in group}
         lines += [f"{budget:,} iterations:", "", "| density | seeds | single 3D | late 3D | late - single, 3D | "
                   "single BEV | late BEV | 3D per seed, single / late |",
                   "| --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |"]
-        for density in sorted(at):
-            single, late = at[density]["single"], at[density]["late"]
+        for density, aps in at.items():
+            single, late = aps["single"], aps["late"]
             gain = [b - a for a, b in zip(single["3d"], late["3d"])]
             lines.append(f"| x{density:g} | {len(gain)} | {spread(single['3d'])} | {spread(late['3d'])} | "
                          f"{spread(gain)} | {spread(single['bev'])} | {spread(late['bev'])} | "
