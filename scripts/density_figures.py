@@ -11,12 +11,14 @@ at one density, e.g. seeds: their mean and sd).
 and OUT/ap_by_distance.png.
 
 `--study DENSITY=FOLDER`: a `simgen-train study --seeds` of single and late (FOLDER/seed_<n>/table1.csv), each model's
-`eval --by-distance` in FOLDER/seed_<n>/<model>/ap/: the compact points (mean and spread over the seeds) on the
-density figure, and OUT/compact_ap_by_distance.png (single, late and late - single by distance, one line per
-density, the mean over seeds), OUT/compact.md and OUT/compact_by_distance.csv (its tables). Studies are grouped by
-their training iterations (table1.csv): one series, table and figure column per budget. By distance, the mean is over
-the seeds with an `ap_by_distance.csv` of both single and late (compact_by_distance.csv's `seeds`); a study with none
-counts in the AP tables only.
+`eval --by-distance` in FOLDER/seed_<n>/<model>/ap/: the compact points (mean and spread over the seeds) on the density
+figure, and OUT/compact_ap_by_distance.png (single, late and late - single by distance, one line per density, the mean
+over seeds), OUT/compact.md and OUT/compact_by_distance.csv (its tables). Studies are grouped by their training
+iterations (table1.csv): one series, table and figure column per budget. Two `--study` at one density and budget are one
+study (e.g. early fusion trained in a study of its own): their models together, a model in both taken from the first
+given (a line says where the other's differs, e.g. fitted again on another machine). By distance, the mean is over the
+seeds with an `ap_by_distance.csv` of both single and late (compact_by_distance.csv's `seeds`); a study with none counts
+in the AP tables only.
 """
 
 from __future__ import annotations
@@ -66,7 +68,7 @@ class SeedsStudy:
 
     density: float
     iterations: int  # training batches of every model and seed
-    folder: Path
+    folders: tuple[Path, ...]  # one, or those merged by `merge_studies`
     ap: dict[str, dict[str, list[float]]]  # model -> {"3d", "bev"} -> each seed's AP R40 (IoU 0.5, all boxes at t)
 
 
@@ -82,7 +84,26 @@ def read_study(density: float, folder: Path) -> SeedsStudy:
                     ap.setdefault(row["model"], {}).setdefault(row["iou"], []).append(float(row["ap"]))
     if len(budgets) != 1:
         raise SystemExit(f"{folder}: expected one training budget over its models and seeds, found {sorted(budgets)}")
-    return SeedsStudy(density, budgets.pop(), folder, ap)
+    return SeedsStudy(density, budgets.pop(), (folder,), ap)
+
+
+def merge_studies(studies: list[SeedsStudy]) -> list[SeedsStudy]:
+    """One study per density and budget, in the order first given: the models of all, a model in several taken from
+    the first (a line printed where a later one's per-seed AP differs)."""
+    merged: dict[tuple[int, float], SeedsStudy] = {}
+    for study in studies:
+        key = (study.iterations, study.density)
+        if key not in merged:
+            merged[key] = study
+            continue
+        first = merged[key]
+        for model, ap in study.ap.items():
+            if first.ap.get(model, ap) != ap:
+                print(f"x{study.density:g}, {study.iterations} iterations: {model} from {first.folders[0]}; "
+                      f"{study.folders[0]}'s differs (3D {first.ap[model]['3d']} against {ap['3d']})")
+        merged[key] = SeedsStudy(study.density, study.iterations, first.folders + study.folders,
+                                 {**study.ap, **first.ap})
+    return list(merged.values())
 
 
 def by_budget(studies: list[SeedsStudy]) -> dict[int, list[SeedsStudy]]:
@@ -93,14 +114,16 @@ def by_budget(studies: list[SeedsStudy]) -> dict[int, list[SeedsStudy]]:
     return groups
 
 
-def study_bins(study: Path) -> dict[str, dict[tuple[float, float], list[dict]]]:
+def study_bins(study: SeedsStudy) -> dict[str, dict[tuple[float, float], list[dict]]]:
     """single and late -> (low_m, high_m) -> the 3D R40 row of its ap_by_distance.csv of each seed that has one for
-    both models ({} where no seed has)."""
+    both models, in the first of the study's folders that has ({} where no seed has)."""
     bins: dict[str, dict[tuple[float, float], list[dict]]] = {}
-    for folder in seed_folders(study):
+    seeds_read = set()
+    for folder in (seed for study_folder in study.folders for seed in seed_folders(study_folder)):
         paths = {model: folder / model / "ap" / "ap_by_distance.csv" for model in ("single", "late")}
-        if not all(path.is_file() for path in paths.values()):
+        if folder.name in seeds_read or not all(path.is_file() for path in paths.values()):
             continue
+        seeds_read.add(folder.name)
         for model, path in paths.items():
             with open(path) as file:
                 for row in csv.DictReader(file):
@@ -186,9 +209,10 @@ def compact_distance(studies: list[SeedsStudy], out: Path) -> None:
     rows = []
     for column, (budget, group) in enumerate(columns.items()):
         for study in group:
-            by_model = study_bins(study.folder)
+            by_model = study_bins(study)
             if not by_model:
-                print(f"{study.folder}: no seed with an ap_by_distance.csv of single and late; left out by distance")
+                print(f"{', '.join(map(str, study.folders))}: no seed with an ap_by_distance.csv of single and late; "
+                      "left out by distance")
                 continue
             edges = sorted(by_model["late"])
             mean = {m: [statistics.mean(float(r["ap"]) for r in by_model[m][e]) for e in edges] for m in by_model}
@@ -226,21 +250,23 @@ def compact_distance(studies: list[SeedsStudy], out: Path) -> None:
 
 
 def compact_table(studies: list[SeedsStudy], out: Path) -> None:
-    """OUT/compact.md: per budget, each density's single and late 3D and BEV AP over seeds, the fusion gain, the
-    x2 -> x1 loss."""
+    """OUT/compact.md: per budget, each density's single and late (and early where run) 3D and BEV AP over seeds, the
+    fusion gain, the x2 -> x1 loss."""
     lines = []
     for budget, group in by_budget(studies).items():
         at = {st.density: st.ap for st in group}
-        lines += [f"{budget:,} iterations:", "", "| density | seeds | single 3D | late 3D | late - single, 3D | "
-                  "single BEV | late BEV | 3D per seed, single / late |",
-                  "| --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |"]
+        lines += [f"{budget:,} iterations:", "", "| density | seeds | single 3D | early 3D | late 3D | "
+                  "late - single, 3D | single BEV | late BEV | 3D per seed, single / early / late |",
+                  "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |"]
         for density, aps in at.items():
             single, late = aps["single"], aps["late"]
+            early = aps.get("early", {"3d": []})["3d"]
             gain = [b - a for a, b in zip(single["3d"], late["3d"])]
-            lines.append(f"| x{density:g} | {len(gain)} | {spread(single['3d'])} | {spread(late['3d'])} | "
-                         f"{spread(gain)} | {spread(single['bev'])} | {spread(late['bev'])} | "
-                         f"{' '.join(f'{v:.2f}' for v in single['3d'])} / "
-                         f"{' '.join(f'{v:.2f}' for v in late['3d'])} |")
+            per_seed = " / ".join(" ".join(f"{v:.2f}" for v in values) or "–"
+                                  for values in (single["3d"], early, late["3d"]))
+            lines.append(f"| x{density:g} | {len(gain)} | {spread(single['3d'])} | {spread(early) if early else '–'} | "
+                         f"{spread(late['3d'])} | {spread(gain)} | {spread(single['bev'])} | {spread(late['bev'])} | "
+                         f"{per_seed} |")
         if 1.0 in at and 2.0 in at:
             lines += ["", "The paper's Δ of 3D (x2 -> x1), ours: the mean at x1 minus the mean at x2 (± the two sds "
                       "added in quadrature); the paper: late -11.83, single -17.91.", ""]
@@ -268,8 +294,9 @@ def main() -> None:
         if model not in COLOURS or not density:
             parser.error(f"{text!r}: expected MODEL@DENSITY=PATH, MODEL one of {', '.join(COLOURS)}")
         curves.append((model, float(density), path))
-    studies = sorted((read_study(float(density), folder) for density, folder in
-                      (split_arg(text, parser) for text in args.study)), key=lambda st: (st.iterations, st.density))
+    studies = sorted(merge_studies([read_study(float(density), folder) for density, folder in
+                                    (split_arg(text, parser) for text in args.study)]),
+                     key=lambda st: (st.iterations, st.density))
     args.output.mkdir(parents=True, exist_ok=True)
     density_figure(curves, studies, args.output)
     distance_figure([split_arg(text, parser) for text in args.bins], args.output)
