@@ -70,11 +70,14 @@ class SeedsStudy:
     iterations: int  # training batches of every model and seed
     folders: tuple[Path, ...]  # one, or those merged by `merge_studies`
     ap: dict[str, dict[str, list[float]]]  # model -> {"3d", "bev"} -> each seed's AP R40 (IoU 0.5, all boxes at t)
+    samota: dict[str, list[float]]  # tracker -> sAMOTA (%, IoU 0.25, filtered) of each seed with a table2
 
 
 def read_study(density: float, folder: Path) -> SeedsStudy:
-    """The study's AP and budget from each seed's table1.csv (one budget over its models and seeds, or an error)."""
+    """The study's AP and budget from each seed's table1.csv (one budget over its models and seeds, or an error), and
+    its trackers' sAMOTA from each seed's table2.csv where there is one."""
     ap: dict[str, dict[str, list[float]]] = {}
+    samota: dict[str, list[float]] = {}
     budgets = set()
     for seed in seed_folders(folder):
         with open(seed / "table1.csv") as file:
@@ -82,14 +85,19 @@ def read_study(density: float, folder: Path) -> SeedsStudy:
                 budgets.add(int(row["iterations"]))
                 if (row["truth_set"], row["box"], row["recall_points"]) == ("all", "t", "40"):
                     ap.setdefault(row["model"], {}).setdefault(row["iou"], []).append(float(row["ap"]))
+        if (seed / "table2.csv").is_file():
+            with open(seed / "table2.csv") as file:
+                for row in csv.DictReader(file):
+                    if (row["tracklets"], row["min_iou"]) == ("filtered", "0.25"):
+                        samota.setdefault(row["tracker"], []).append(100 * float(row["samota"]))
     if len(budgets) != 1:
         raise SystemExit(f"{folder}: expected one training budget over its models and seeds, found {sorted(budgets)}")
-    return SeedsStudy(density, budgets.pop(), (folder,), ap)
+    return SeedsStudy(density, budgets.pop(), (folder,), ap, samota)
 
 
 def merge_studies(studies: list[SeedsStudy]) -> list[SeedsStudy]:
     """One study per density and budget, in the order first given: the models of all, a model in several taken from
-    the first (a line printed where a later one's per-seed AP differs)."""
+    the first (a line printed where a later one's per-seed AP differs), and so each tracker's sAMOTA."""
     merged: dict[tuple[int, float], SeedsStudy] = {}
     for study in studies:
         key = (study.iterations, study.density)
@@ -102,7 +110,7 @@ def merge_studies(studies: list[SeedsStudy]) -> list[SeedsStudy]:
                 print(f"x{study.density:g}, {study.iterations} iterations: {model} from {first.folders[0]}; "
                       f"{study.folders[0]}'s differs (3D {first.ap[model]['3d']} against {ap['3d']})")
         merged[key] = SeedsStudy(study.density, study.iterations, first.folders + study.folders,
-                                 {**study.ap, **first.ap})
+                                 {**study.ap, **first.ap}, {**study.samota, **first.samota})
     return list(merged.values())
 
 
@@ -249,9 +257,12 @@ def compact_distance(studies: list[SeedsStudy], out: Path) -> None:
         writer.writerows(rows)
 
 
+TRACKERS = ("3D DIoU", "3D DIoU + birth/death + split", "AB3DMOT")  # compact.md's Table 2 columns
+
+
 def compact_table(studies: list[SeedsStudy], out: Path) -> None:
     """OUT/compact.md: per budget, each density's single and late (and early where run) 3D and BEV AP over seeds, the
-    fusion gain, the x2 -> x1 loss."""
+    fusion gain, Table 2's sAMOTA over seeds, the x2 -> x1 loss."""
     lines = []
     for budget, group in by_budget(studies).items():
         at = {st.density: st.ap for st in group}
@@ -267,6 +278,13 @@ def compact_table(studies: list[SeedsStudy], out: Path) -> None:
             lines.append(f"| x{density:g} | {len(gain)} | {spread(single['3d'])} | {spread(early) if early else '–'} | "
                          f"{spread(late['3d'])} | {spread(gain)} | {spread(single['bev'])} | {spread(late['bev'])} | "
                          f"{per_seed} |")
+        lines += ["", "Table 2, sAMOTA (%, IoU 0.25, each tracker at its filter chosen on the train clips), over "
+                  "the seeds with a table2.csv:", "", "| density | seeds | " + " | ".join(TRACKERS) + " |",
+                  "| --- | ---: |" + " ---: |" * len(TRACKERS)]
+        for study in group:
+            if study.samota:
+                lines.append(f"| x{study.density:g} | {len(study.samota[TRACKERS[0]])} | "
+                             + " | ".join(spread(study.samota[tracker]) for tracker in TRACKERS) + " |")
         if 1.0 in at and 2.0 in at:
             lines += ["", "The paper's Δ of 3D (x2 -> x1), ours: the mean at x1 minus the mean at x2 (± the two sds "
                       "added in quadrature); the paper: late -11.83, single -17.91.", ""]
